@@ -1,0 +1,1 @@
+"""Reading and writing scenes, images, masks and Gaussians."""

@@ -1,0 +1,1 @@
+"""Differentiable Gaussian rasterization with interchangeable backends (torch, numba CPU, gsplat CUDA)."""
