@@ -1,0 +1,45 @@
+"""CUDA backend: gsplat's tile binning and rasterize-to-pixels after our projection and SH (torch, on the GPU).
+
+gsplat's CUDA rasterizer follows the same compositing rules as the original 3DGS kernels (alpha
+clamp 0.99, skip below 1/255, stop at T < 1e-4), and takes any number of channels, so depth
+(Eq. 5, sum z a T, "RGB+D"-style, not divided by alpha) and the object features ride along as
+extra channels of one call. Imported lazily: only ``render(..., backend="gsplat")`` needs gsplat.
+Handles both radius layouts of gsplat's ``isect_tiles`` ((C, N) up to 1.4, (C, N, 2) after).
+"""
+
+from __future__ import annotations
+
+import torch
+
+from inpaint360gs.render.tiles import TILE, tile_grid
+
+
+def _isect_tiles(gsplat, means2d, radii, depths, tiles_x, tiles_y):
+    r = radii.to(torch.int32)[None]
+    try:  # gsplat >= 1.5: per-axis radii (C, N, 2)
+        return gsplat.isect_tiles(means2d[None], r[..., None].expand(*r.shape, 2).contiguous(), depths[None], TILE, tiles_x, tiles_y)
+    except (AssertionError, RuntimeError, TypeError, ValueError):  # older: (C, N)
+        return gsplat.isect_tiles(means2d[None], r, depths[None], TILE, tiles_x, tiles_y)
+
+
+def rasterize_to_pixels_gsplat(
+    means2d: torch.Tensor,
+    conics: torch.Tensor,
+    opacities: torch.Tensor,
+    channels: torch.Tensor,
+    radii: torch.Tensor,
+    depths: torch.Tensor,
+    width: int,
+    height: int,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Composite (N, C) channels with gsplat's CUDA kernels -> ((H, W, C), (H, W) alpha)."""
+    import gsplat
+
+    tiles_x, tiles_y = tile_grid(width, height)
+    _, isect_ids, flatten_ids = _isect_tiles(gsplat, means2d.detach(), radii, depths.detach(), tiles_x, tiles_y)
+    offsets = gsplat.isect_offset_encode(isect_ids, 1, tiles_x, tiles_y)
+    img, alpha = gsplat.rasterize_to_pixels(
+        means2d[None].contiguous(), conics[None].contiguous(), channels[None].contiguous(), opacities[None].contiguous(),
+        width, height, TILE, offsets, flatten_ids,
+    )  # fmt: skip
+    return img[0], alpha[0, ..., 0]

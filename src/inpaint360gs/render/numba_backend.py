@@ -1,0 +1,83 @@
+"""The fast CPU backend: numba kernels (:mod:`.numba_kernels`) wrapped as a ``torch.autograd.Function``.
+
+Compiled kernels are cached on disk (see :mod:`.numba_cache`; the first compile takes ~15 s).
+Kernels run in float32 on ``min(torch.get_num_threads(), NUMBA_NUM_THREADS)`` threads, so torch
+and numba never oversubscribe.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import torch
+
+from inpaint360gs.errors import InputError
+from inpaint360gs.render import numba_kernels as K
+from inpaint360gs.render.tiles import tile_grid
+
+
+def _set_threads() -> None:
+    numba.set_num_threads(max(1, min(torch.get_num_threads(), numba.config.NUMBA_NUM_THREADS)))
+
+
+def _np32(x: torch.Tensor) -> np.ndarray:
+    return np.ascontiguousarray(x.detach().cpu().numpy(), dtype=np.float32)
+
+
+MAX_TILE_LIST = 1 << 24  # the kernels keep per-pixel "last contributor" as a float32 offset into the tile's list
+
+
+def prepare(means2d, conics, opacities, radii, depths, width: int, height: int):
+    """Pack Gaussians and bin them into tiles -> (packed (N, 8), offsets, gauss ids, tile order, tiles_x) (numpy)."""
+    m, q, o = _np32(means2d), _np32(conics), _np32(opacities)
+    tiles_x, tiles_y = tile_grid(width, height)
+    r = np.ascontiguousarray(radii.detach().cpu().numpy(), dtype=np.int32)
+    offsets, gids = K.bin_gaussians(m, r, _np32(depths), tiles_x, tiles_y)
+    counts = np.diff(offsets)
+    if counts.size and int(counts.max()) >= MAX_TILE_LIST:
+        raise InputError(f"more than {MAX_TILE_LIST} Gaussians overlap one 16x16 tile", "gaussians")
+    order = np.argsort(-counts, kind="stable")[: int(np.count_nonzero(counts))]  # busy tiles, longest first
+    return K.pack(m, q, o), offsets, gids, order, tiles_x
+
+
+class _RasterizeNumba(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, means2d, conics, opacities, channels, radii, depths, width: int, height: int):
+        _set_threads()
+        pk, offsets, gids, order, tiles_x = prepare(means2d, conics, opacities, radii, depths, width, height)
+        ch = _np32(channels)
+        workers = numba.get_num_threads()
+        img, t_final, last, _ = K.forward(pk, ch, offsets, gids, order, workers, width, height, tiles_x)
+        ctx.state = (pk, ch, offsets, gids, order, width, height, tiles_x, t_final, last)
+        ctx.dtypes = (means2d.dtype, conics.dtype, opacities.dtype, channels.dtype)
+        return torch.from_numpy(img).to(channels.dtype), torch.from_numpy(1.0 - t_final).to(means2d.dtype)
+
+    @staticmethod
+    def backward(ctx, d_img, d_alpha):
+        _set_threads()
+        pk, ch, offsets, gids, order, width, height, tiles_x, t_final, last = ctx.state
+        d_img = np.zeros((height, width, ch.shape[1]), np.float32) if d_img is None else _np32(d_img)
+        d_alpha = np.zeros((height, width), np.float32) if d_alpha is None else _np32(d_alpha)
+        workers = numba.get_num_threads()
+        rows = K.backward(pk, ch, offsets, gids, order, workers, width, height, tiles_x, t_final, last, d_img, d_alpha)
+        g = torch.from_numpy(K.reduce_rows(rows, gids, pk.shape[0]))
+        dm, dq, do, dc = ctx.dtypes
+        return g[:, 0:2].to(dm), g[:, 2:5].to(dq), g[:, 5].to(do), g[:, 6:].to(dc), None, None, None, None
+
+
+def rasterize_to_pixels_numba(
+    means2d: torch.Tensor,
+    conics: torch.Tensor,
+    opacities: torch.Tensor,
+    channels: torch.Tensor,
+    radii: torch.Tensor,
+    depths: torch.Tensor,
+    width: int,
+    height: int,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Composite (N, C) channels -> ((H, W, C), (H, W) alpha) with the numba kernels (CPU, float32 internally)."""
+    if means2d.device.type != "cpu":
+        raise InputError(f"the numba backend needs CPU tensors, got {means2d.device}", "backend")
+    if opacities.numel() and not bool(((opacities >= 0) & (opacities <= 1)).all()):
+        raise InputError("opacities must lie in [0, 1] (the fast exp relies on it)", "opacities")
+    return _RasterizeNumba.apply(means2d, conics, opacities, channels, radii, depths, width, height)
