@@ -1,0 +1,341 @@
+"""Load a scene folder in the Inpaint360GS layout (DESIGN.md §3) through pycolmap.
+
+Layout: ``images/`` (object-free ground-truth captures named ``test_*``), ``sparse/0`` (one COLMAP
+model registering all images), optional ``images_<r>/`` downscaled copies, ``unseen_mask/``,
+``object_mask/`` and ``scene.json``.
+
+Splits (paper supp. Sec. C, "evaluation mode"): ``test_*`` views are the inpainting-evaluation views;
+among the others, sorted by name, every ``llffhold``-th (index 0, 8, 16, ...) is held out for
+reconstruction evaluation and the rest are training views, as in the original 3DGS loader.
+
+Policy for images on disk that the model does not register: an error by default (such a file is
+usually a failed registration or a stray ground-truth capture, and silently ignoring it hides
+leakage or missing data); ``unregistered="warn"`` downgrades it to a warning and lists the files in
+``Scene.unregistered``.
+
+Method stages never see test pixels by accident: a test view's camera is available like any other,
+but :meth:`Scene.load_image` refuses it unless called with ``allow_test=True`` (evaluation only).
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import torch
+
+from inpaint360gs.errors import InputError
+from inpaint360gs.io.images import IMAGE_SUFFIXES, image_size, read_image, read_mask, resize_image, resize_mask, to_float
+from inpaint360gs.render.camera import Camera
+
+Split = Literal["train", "holdout", "test"]
+TEST_PREFIX = "test_"
+MASK_KINDS = ("unseen_mask", "object_mask")
+MASK_SUFFIXES = (".png", ".PNG", ".jpg", ".jpeg", ".JPG", ".tif", ".tiff")
+PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE")
+
+
+class TestPixelAccessError(RuntimeError):
+    """A method stage asked for the pixels of a ``test_`` view (only evaluation may read them)."""
+
+    __test__ = False  # not a pytest test class
+
+
+@dataclass(frozen=True)
+class View:
+    """One registered capture: its camera at the scene's resize factor and where its pixels are."""
+
+    name: str  # image name as in the COLMAP model, e.g. "IMG_0001.png"
+    split: Split
+    camera: Camera  # at the scene's resize factor
+    image_path: Path  # the file pixels are read from (images_<r>/ when present, else images/)
+    image_id: int
+    camera_id: int
+    resize_on_load: bool = False  # pixels come from images/ at full size and are downscaled on read
+
+    @property
+    def stem(self) -> str:
+        return Path(self.name).stem
+
+    @property
+    def is_test(self) -> bool:
+        return self.split == "test"
+
+
+@dataclass
+class Scene:
+    """A loaded scene folder: views with cameras, sparse points, mask files and ``scene.json``."""
+
+    root: Path
+    resize: int
+    views: list[View]  # sorted by name
+    points: torch.Tensor  # (P, 3) float32 sparse SfM points (world)
+    point_colors: torch.Tensor  # (P, 3) float32 in [0, 1]
+    info: dict = field(default_factory=dict)  # scene.json ({} when absent)
+    masks: dict[str, dict[str, Path]] = field(default_factory=dict)  # kind -> view name -> file
+    unregistered: list[str] = field(default_factory=list)  # files in images/ not in the model
+
+    @property
+    def name(self) -> str:
+        return self.root.name
+
+    def split(self, split: Split) -> list[View]:
+        return [v for v in self.views if v.split == split]
+
+    @property
+    def train_views(self) -> list[View]:
+        return self.split("train")
+
+    @property
+    def holdout_views(self) -> list[View]:
+        return self.split("holdout")
+
+    @property
+    def test_views(self) -> list[View]:
+        """Object-free evaluation views: cameras only, unless pixels are asked for explicitly."""
+        return self.split("test")
+
+    def view(self, name: str) -> View:
+        for v in self.views:
+            if v.name == name or v.stem == name:
+                return v
+        raise InputError(f"no view named {name!r} in the scene", self.root)
+
+    def load_image_raw(self, view: View, *, allow_test: bool = False) -> np.ndarray:
+        """(H, W, 3) uint8/uint16 pixels of ``view`` at the scene's resolution."""
+        if view.is_test and not allow_test:
+            raise TestPixelAccessError(
+                f"{view.image_path}: pixels of test view {view.name} are evaluation data; "
+                "method stages may use its camera only (pass allow_test=True in evaluation code)"
+            )
+        img = read_image(view.image_path)
+        cam = view.camera
+        if view.resize_on_load:
+            img = resize_image(img, cam.width, cam.height)
+        if (img.shape[1], img.shape[0]) != (cam.width, cam.height):
+            raise InputError(
+                f"image is {img.shape[1]}x{img.shape[0]} but its camera expects {cam.width}x{cam.height}",
+                view.image_path,
+            )
+        return img
+
+    def load_image(self, view: View, *, allow_test: bool = False) -> torch.Tensor:
+        """(H, W, 3) float32 RGB in [0, 1] at the scene's resolution; test views need ``allow_test``."""
+        return to_float(self.load_image_raw(view, allow_test=allow_test))
+
+    def has_mask(self, view: View, kind: str = "unseen_mask") -> bool:
+        return view.name in self.masks.get(kind, {})
+
+    def load_mask(self, view: View, kind: str = "unseen_mask") -> np.ndarray:
+        """Mask of ``view`` at the scene's resolution: bool for ``unseen_mask`` (255 = unseen),
+        the stored integer labels for ``object_mask``."""
+        path = self.masks.get(kind, {}).get(view.name)
+        if path is None:
+            raise InputError(f"no {kind} for view {view.name}", self.root / kind)
+        m = read_mask(path)
+        cam = view.camera
+        m = resize_mask(m, cam.width, cam.height)
+        if kind == "unseen_mask":
+            top = np.iinfo(m.dtype).max if np.issubdtype(m.dtype, np.integer) else 1.0
+            return m > top / 2
+        return m
+
+    @property
+    def extent(self) -> float:
+        """Scene radius of the original 3DGS (``getNerfppNorm``): 1.1 x the largest distance of a
+        training camera centre from their mean. Scales position learning rates and densification."""
+        return nerf_radius([v.camera for v in self.train_views])
+
+
+def nerf_radius(cameras: Sequence[Camera]) -> float:
+    """1.1 x max distance of the camera centres from their mean (3DGS ``getNerfppNorm``)."""
+    if not cameras:
+        raise InputError("no cameras to compute the scene extent from")
+    centers = torch.stack([c.center.double() for c in cameras])
+    d = (centers - centers.mean(0)).norm(dim=1).max().item()
+    return 1.1 * d if d > 0 else 1.0
+
+
+def is_test_name(name: str) -> bool:
+    return Path(name).name.startswith(TEST_PREFIX)
+
+
+def _read_model(sparse: Path):
+    import pycolmap
+
+    if not sparse.is_dir():
+        raise InputError("missing COLMAP model folder sparse/0", sparse)
+    if not any((sparse / f"cameras.{ext}").is_file() for ext in ("bin", "txt")):
+        raise InputError("no cameras.bin or cameras.txt in the COLMAP model folder", sparse)
+    try:
+        return pycolmap.Reconstruction(str(sparse))
+    except Exception as e:  # pycolmap raises plain RuntimeError/ValueError with a multi-line text
+        msg = str(e).strip().splitlines()[-1] if str(e).strip() else e.__class__.__name__
+        raise InputError(f"cannot read COLMAP model ({msg})", sparse) from None
+
+
+def _intrinsics(cam, sparse: Path) -> tuple[float, float, float, float]:
+    model = cam.model_name
+    if model == "PINHOLE":
+        fx, fy, cx, cy = (float(x) for x in cam.params)
+    elif model == "SIMPLE_PINHOLE":
+        f, cx, cy = (float(x) for x in cam.params)
+        fx = fy = f
+    else:
+        raise InputError(
+            f"camera {cam.camera_id} uses model {model}, which has distortion or is not a pinhole; "
+            "undistort the images first (colmap image_undistorter / pycolmap.undistort_images) so the "
+            "model is PINHOLE or SIMPLE_PINHOLE",
+            sparse / "cameras.bin",
+        )
+    return fx, fy, cx, cy
+
+
+def _find_mask(mask_dir: Path, name: str) -> Path | None:
+    for cand in (mask_dir / name, *(mask_dir / f"{Path(name).stem}{s}" for s in MASK_SUFFIXES)):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def _disk_images(images_dir: Path) -> set[str]:
+    """Image files under images/ (relative names, subfolders included; hidden files skipped)."""
+    out = set()
+    for p in images_dir.rglob("*"):
+        rel = p.relative_to(images_dir)
+        if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not any(s.startswith(".") for s in rel.parts):
+            out.add(rel.as_posix())
+    return out
+
+
+def load_scene(
+    root: str | Path,
+    *,
+    resize: int = 1,
+    llffhold: int = 8,
+    load_masks: bool | Sequence[str] = True,
+    unregistered: Literal["error", "warn"] = "error",
+) -> Scene:
+    """Read a scene folder (DESIGN.md §3) at image downscale factor ``resize``.
+
+    Only file headers are read here (sizes are checked); pixels are read by ``Scene.load_image``.
+    ``llffhold <= 0`` puts every non-test view into training. Raises ``InputError`` naming the file
+    for any inconsistency (see the module docstring for the unregistered-image policy).
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise InputError("scene folder not found", root)
+    if int(resize) != resize or resize < 1:
+        raise InputError(f"resize factor must be an integer >= 1, got {resize}", "--resize")
+    resize = int(resize)
+    images_dir = root / "images"
+    if not images_dir.is_dir():
+        raise InputError("missing images/ folder", images_dir)
+    sparse = root / "sparse" / "0"
+    rec = _read_model(sparse)
+
+    scaled_dir = root / f"images_{resize}"
+    use_scaled = resize > 1 and scaled_dir.is_dir()
+
+    entries = []
+    for image_id, im in sorted(rec.images.items(), key=lambda kv: kv[1].name):  # deterministic order
+        if not im.has_pose:
+            continue
+        cam = rec.cameras[im.camera_id]
+        fx, fy, cx, cy = _intrinsics(cam, sparse)
+        pose = np.asarray(im.cam_from_world().matrix(), dtype=np.float64)
+        full = Camera(
+            R=torch.from_numpy(pose[:, :3]).float(),
+            t=torch.from_numpy(pose[:, 3]).float(),
+            fx=fx, fy=fy, cx=cx, cy=cy,
+            width=int(cam.width), height=int(cam.height), name=im.name,
+        )  # fmt: skip
+        src = images_dir / im.name
+        if not src.is_file():
+            raise InputError(f"image {im.name} is registered in sparse/0 but missing on disk", src)
+        camera = full.scaled(resize) if resize > 1 else full
+        if use_scaled:
+            path = scaled_dir / im.name
+            if not path.is_file():
+                raise InputError(f"image {im.name} missing from {scaled_dir.name}/ (complete or delete that folder)", path)
+            if image_size(path) != (camera.width, camera.height):
+                w, h = image_size(path)
+                raise InputError(f"image is {w}x{h} but {scaled_dir.name}/ needs {camera.width}x{camera.height}", path)
+        else:
+            path = src
+            if image_size(src) != (full.width, full.height):
+                w, h = image_size(src)
+                raise InputError(f"image is {w}x{h} but camera {im.camera_id} is {full.width}x{full.height}", src)
+        entries.append((im.name, camera, path, int(image_id), int(im.camera_id), resize > 1 and not use_scaled))
+
+    registered = {e[0] for e in entries}
+    extra = sorted(_disk_images(images_dir) - registered)
+    if extra:
+        msg = f"{len(extra)} image(s) on disk are not registered in sparse/0 (first: {extra[0]})"
+        if unregistered == "error":
+            raise InputError(msg + "; register them or remove them", images_dir / extra[0])
+        warnings.warn(f"{images_dir}: {msg}; they are ignored", stacklevel=2)
+
+    entries.sort(key=lambda e: e[0])
+    others = [e for e in entries if not is_test_name(e[0])]
+    holdout = {e[0] for i, e in enumerate(others) if llffhold > 0 and i % llffhold == 0}
+    views = []
+    for name, camera, path, image_id, camera_id, on_load in entries:
+        split: Split = "test" if is_test_name(name) else ("holdout" if name in holdout else "train")
+        views.append(View(name, split, camera, path, image_id, camera_id, on_load))
+    if not any(v.split == "train" for v in views):
+        raise InputError(
+            f"no training views ({len(entries)} registered images, {len(entries) - len(others)} named test_*, "
+            f"llffhold={llffhold})",
+            sparse,
+        )
+
+    pts = [rec.points3D[i] for i in sorted(rec.points3D)]  # by point id: a deterministic order
+    xyz = np.array([p.xyz for p in pts], dtype=np.float32).reshape(-1, 3)
+    rgb = np.array([p.color for p in pts], dtype=np.float32).reshape(-1, 3) / 255.0
+
+    info: dict = {}
+    info_path = root / "scene.json"
+    if info_path.is_file():
+        try:
+            info = json.loads(info_path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            raise InputError(f"not valid JSON ({e})", info_path) from None
+        if not isinstance(info, dict):
+            raise InputError("scene.json must hold a JSON object", info_path)
+
+    kinds = MASK_KINDS if load_masks is True else (() if load_masks is False else tuple(load_masks))
+    masks: dict[str, dict[str, Path]] = {}
+    for kind in kinds:
+        mdir = root / kind
+        if not mdir.is_dir():
+            continue
+        found = {}
+        for v in views:
+            p = _find_mask(mdir, v.name)
+            if p is None:
+                continue
+            size = image_size(p)
+            full_size = (rec.cameras[v.camera_id].width, rec.cameras[v.camera_id].height)
+            if size not in (full_size, (v.camera.width, v.camera.height)):
+                raise InputError(
+                    f"mask is {size[0]}x{size[1]} but image {v.name} is {full_size[0]}x{full_size[1]}", p
+                )
+            found[v.name] = p
+        masks[kind] = found
+
+    return Scene(
+        root=root,
+        resize=resize,
+        views=views,
+        points=torch.from_numpy(xyz),
+        point_colors=torch.from_numpy(rgb),
+        info=info,
+        masks=masks,
+        unregistered=extra,
+    )
