@@ -1,0 +1,128 @@
+"""Write one synthetic scene folder in the Inpaint360GS layout (DESIGN.md §3) plus its ground truth under gt/.
+
+    <name>/images/IMG_%04d.png, test_%04d.png   object-inclusive orbit captures, object-free captures
+    <name>/sparse/0/                            COLMAP binary model from the true poses (pycolmap)
+    <name>/unseen_mask/test_%04d.png            255 = never seen by an object-inclusive capture
+    <name>/gt/cameras.json                      intrinsics and R, t (world->camera) of every image
+    <name>/gt/instance/<stem>.png               uint8 object id at each pixel centre (0 = background)
+    <name>/gt/depth/<stem>.npy                  float32 z-depth of each pixel-centre ray
+    <name>/gt/objects.json                      id, label, shape, removal target, bounding sphere
+    <name>/scene.json                           objects, removal targets, up, provenance
+
+The folder is built under a temporary name and renamed at the end (io.atomic.atomic_dir).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+from tqdm import tqdm
+
+from dataset_tools.synth.render import render
+from dataset_tools.synth.scene import SynthScene, build_scene
+from dataset_tools.synth.sparse import sample_points, write_sparse_model
+from dataset_tools.synth.visibility import unseen_mask
+from inpaint360gs import __version__
+from inpaint360gs.io.atomic import atomic_dir
+
+GENERATOR = "inpaint360gs-dataset synth"
+
+
+def _png(path: Path, arr: np.ndarray) -> None:
+    Image.fromarray(arr).save(path, format="PNG", compress_level=6)
+
+
+def _json(path: Path, obj) -> None:
+    path.write_text(json.dumps(obj, indent=1) + "\n")
+
+
+def scene_metadata(scene: SynthScene) -> dict:
+    """``scene.json`` (DESIGN.md §3)."""
+    spec = scene.spec
+    return {
+        "name": spec.name,
+        "description": spec.description,
+        "objects": [{"id": o.id, "label": o.label} for o in spec.objects],
+        "removal_targets": spec.removal_targets,
+        "up": [0.0, 0.0, 1.0],
+        "provenance": {
+            "generator": GENERATOR,
+            "version": __version__,
+            "seed": scene.seed,
+            "width": scene.width,
+            "height": scene.height,
+            "reduced": scene.reduced,
+        },
+    }
+
+
+def objects_metadata(scene: SynthScene) -> list[dict]:
+    """``gt/objects.json``: every object with its geometry summary and whether it is removed."""
+    out = []
+    for o in scene.spec.objects:
+        c, r = o.bounds()
+        out.append({"id": o.id, "label": o.label, "shape": o.shape, "removal_target": o.target,
+                    "bounding_sphere": {"center": [round(float(x), 6) for x in c], "radius": round(r, 6)}})
+    return out
+
+
+def cameras_metadata(scene: SynthScene) -> dict:
+    """``gt/cameras.json``: the shared PINHOLE intrinsics and every image's exact world->camera pose."""
+    v0 = scene.views[0]
+    return {
+        "model": "PINHOLE", "width": v0.width, "height": v0.height,
+        "fx": v0.fx, "fy": v0.fy, "cx": v0.cx, "cy": v0.cy,
+        "convention": "x_cam = R x_world + t; x right, y down, z forward; pixel (i, j) centre at (j + 0.5, i + 0.5)",
+        "images": [v.to_json() for v in sorted(scene.views, key=lambda v: v.name)],
+    }
+
+
+def write_scene(scene: SynthScene, folder: Path, progress: bool = False) -> None:
+    """Render every capture, compute unseen masks and the sparse model, and write them into ``folder``."""
+    for sub in ("images", "sparse/0", "unseen_mask", "gt/instance", "gt/depth"):
+        (folder / sub).mkdir(parents=True, exist_ok=True)
+    bar = tqdm(total=len(scene.views) + len(scene.test_views) + 1, desc=f"synth {scene.name}", unit="step", disable=not progress, leave=True)
+    renders = {}
+    for v in scene.views:
+        r = render(scene.world(v.object_free), v)
+        renders[v.name] = r
+        _png(folder / "images" / v.name, r.rgb8())
+        _png(folder / "gt" / "instance" / f"{v.stem}.png", r.instance)
+        np.save(folder / "gt" / "depth" / f"{v.stem}.npy", r.depth.astype(np.float32))
+        bar.update(1)
+    for v in scene.test_views:
+        mask = unseen_mask(scene, v, renders[v.name].points)
+        _png(folder / "unseen_mask" / f"{v.stem}.png", mask)
+        bar.update(1)
+    pts = sample_points(scene, renders, scene.n_points, scene.seed)
+    write_sparse_model(folder / "sparse" / "0", scene.views, pts)
+    bar.update(1)
+    bar.close()
+    _json(folder / "gt" / "cameras.json", cameras_metadata(scene))
+    _json(folder / "gt" / "objects.json", objects_metadata(scene))
+    _json(folder / "scene.json", scene_metadata(scene))
+
+
+def generate_scene(
+    name: str,
+    out_dir: str | Path,
+    *,
+    reduced: bool = False,
+    width: int | None = None,
+    height: int | None = None,
+    seed: int = 0,
+    overwrite: bool = False,
+    progress: bool = False,
+) -> Path:
+    """Generate catalogue scene ``name`` into ``out_dir/name`` (atomically) and return that folder.
+
+    Deterministic: the same arguments give byte-identical files.
+    """
+    scene = build_scene(name, reduced=reduced, width=width, height=height, seed=seed)
+    target = Path(out_dir) / scene.name
+    with atomic_dir(target, overwrite=overwrite) as tmp:
+        write_scene(scene, tmp, progress=progress)
+    return target
