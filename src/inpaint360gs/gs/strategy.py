@@ -1,0 +1,151 @@
+"""Adaptive density control of 3DGS (Kerbl et al. 2023, Sec. 5.2; ``densify_and_prune``).
+
+Per step, while ``step < densify_until``: the norm of each visible Gaussian's view-space (means2d)
+gradient, converted to NDC units, is accumulated with a visit count, and the largest 2D radius is
+kept. Every ``densify_every`` steps after ``densify_from``: Gaussians whose mean gradient reaches
+``grad_threshold`` are cloned when small (max scale <= percent_dense x extent) or split into
+``split_children`` samples when large; then low-opacity Gaussians are pruned, and after the first
+opacity reset also those that grew too big on screen or in the world. Every ``opacity_reset_every``
+steps opacities are clamped to ``opacity_reset_value``. The structure follows gsplat's
+``DefaultStrategy``: an object with its state in a dict, called after the optimiser step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from inpaint360gs.gs.config import DensifyConfig
+from inpaint360gs.gs.optim import PARAM_NAMES, Optimizers, Params, append_rows, keep_rows, reset_param
+
+
+def quat_to_rotmat(q: torch.Tensor) -> torch.Tensor:
+    """(N, 4) quaternions (w, x, y, z), normalised here, -> (N, 3, 3) rotation matrices."""
+    w, x, y, z = torch.nn.functional.normalize(q, dim=-1).unbind(-1)
+    return torch.stack(
+        [
+            1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
+        ],
+        dim=-1,
+    ).reshape(-1, 3, 3)  # fmt: skip
+
+
+@dataclass
+class DensifyStats:
+    """What one densification step did (logged)."""
+
+    cloned: int = 0
+    split: int = 0
+    pruned: int = 0
+    reset_opacity: bool = False
+
+
+class DensifyStrategy:
+    """The 3DGS clone/split/prune/reset schedule for a scene of radius ``scene_extent``."""
+
+    def __init__(self, cfg: DensifyConfig, scene_extent: float):
+        self.cfg = cfg
+        self.extent = float(scene_extent)
+
+    def initialize_state(self, n: int) -> dict[str, torch.Tensor]:
+        return {
+            "grad2d": torch.zeros(n),  # accumulated NDC-space gradient norms
+            "count": torch.zeros(n),  # steps each Gaussian was visible
+            "max_radii": torch.zeros(n),  # largest 2D radius (pixels) since the last densification
+        }
+
+    def accumulate(self, state: dict[str, torch.Tensor], means2d_grad: torch.Tensor, radii: torch.Tensor, width: int, height: int) -> None:
+        """Add one view's statistics. ``means2d_grad`` is dLoss/d(pixel position), (N, 2).
+
+        The original thresholds gradients w.r.t. NDC coordinates; d pixel / d ndc = size / 2.
+        """
+        visible = radii > 0
+        g = means2d_grad.detach()[visible]
+        g = torch.stack([g[:, 0] * (width / 2.0), g[:, 1] * (height / 2.0)], dim=-1)
+        state["grad2d"][visible] += g.norm(dim=-1).to(state["grad2d"].dtype)
+        state["count"][visible] += 1
+        r = radii.detach()[visible].to(state["max_radii"].dtype)
+        state["max_radii"][visible] = torch.maximum(state["max_radii"][visible], r)
+
+    def step_post_backward(
+        self,
+        params: Params,
+        optimizers: Optimizers,
+        state: dict[str, torch.Tensor],
+        step: int,
+        means2d_grad: torch.Tensor | None,
+        radii: torch.Tensor,
+        width: int,
+        height: int,
+        generator: torch.Generator | None = None,
+    ) -> DensifyStats:
+        """Run after the optimiser step of 0-based ``step``; edits params/optimisers/state in place."""
+        cfg = self.cfg
+        stats = DensifyStats()
+        if step >= cfg.densify_until:
+            return stats
+        if means2d_grad is not None:
+            self.accumulate(state, means2d_grad, radii, width, height)
+        if step > cfg.densify_from and step % cfg.densify_every == 0:
+            stats = self.densify_and_prune(params, optimizers, state, prune_big=step > cfg.opacity_reset_every, generator=generator)
+        if step > 0 and step % cfg.opacity_reset_every == 0:
+            self.reset_opacity(params, optimizers)
+            stats.reset_opacity = True
+        return stats
+
+    def densify_and_prune(
+        self,
+        params: Params,
+        optimizers: Optimizers,
+        state: dict[str, torch.Tensor],
+        *,
+        prune_big: bool,
+        generator: torch.Generator | None = None,
+    ) -> DensifyStats:
+        cfg = self.cfg
+        n = params["means"].shape[0]
+        grads = state["grad2d"] / state["count"].clamp_min(1)
+        high = grads >= cfg.grad_threshold
+        max_scale = params["log_scales"].detach().exp().max(dim=-1).values
+        small = max_scale <= cfg.percent_dense * self.extent
+        clone = high & small
+        split = high & ~small
+
+        # clones: identical copies (3DGS ``densify_and_clone``)
+        new = {k: params[k].detach()[clone] for k in PARAM_NAMES}
+        # split children: positions sampled from the parent Gaussian, scales shrunk (``densify_and_split``)
+        k_ = cfg.split_children
+        sel = {k: params[k].detach()[split] for k in PARAM_NAMES}
+        scales = sel["log_scales"].exp().repeat(k_, 1)
+        samples = torch.randn(scales.shape, generator=generator, dtype=scales.dtype) * scales
+        rots = quat_to_rotmat(sel["quats"]).repeat(k_, 1, 1)
+        children = {k: sel[k].repeat(k_, *([1] * (sel[k].ndim - 1))) for k in PARAM_NAMES}
+        children["means"] = torch.bmm(rots, samples[..., None])[..., 0] + children["means"]
+        children["log_scales"] = torch.log(scales / (cfg.split_scale_divisor * k_))
+        new = {k: torch.cat([new[k], children[k]], 0) for k in PARAM_NAMES}
+        append_rows(params, optimizers, new)
+
+        n_new = new["means"].shape[0]
+        remove = torch.cat([split, torch.zeros(n_new, dtype=torch.bool)])
+        # prune (after densification, over all Gaussians, as the original)
+        opac = torch.sigmoid(params["opacity_logits"].detach())
+        remove |= opac < cfg.min_opacity
+        if prune_big:
+            radii = torch.cat([state["max_radii"], torch.zeros(n_new)])
+            too_big_screen = radii > cfg.max_screen_size
+            too_big_world = params["log_scales"].detach().exp().max(dim=-1).values > cfg.max_world_size * self.extent
+            remove |= too_big_screen | too_big_world
+        keep_rows(params, optimizers, ~remove)
+
+        m = params["means"].shape[0]
+        for key in state:
+            state[key] = torch.zeros(m, dtype=state[key].dtype)
+        return DensifyStats(cloned=int(clone.sum()), split=int(split.sum()), pruned=int(remove.sum()) - int(split.sum()))
+
+    def reset_opacity(self, params: Params, optimizers: Optimizers) -> None:
+        """Clamp opacities to at most ``opacity_reset_value`` and zero their Adam moments."""
+        cap = torch.logit(torch.tensor(self.cfg.opacity_reset_value, dtype=params["opacity_logits"].dtype))
+        reset_param(params, optimizers, "opacity_logits", torch.minimum(params["opacity_logits"].detach(), cap))
