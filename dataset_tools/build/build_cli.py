@@ -1,0 +1,84 @@
+"""``inpaint360gs-dataset build CAPTURES OUT``: joint COLMAP of object-inclusive + object-free photos.
+
+CAPTURES is either two folders, ``with_objects/`` and ``without_objects/``, or one folder in which the
+object-free photos are named ``test_*``. See dataset_tools/build/README.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from dataset_tools.build.captures import CaptureConfig
+from dataset_tools.build.colmap import SUPPORTED_MODELS, SfMConfig
+from dataset_tools.build.pipeline import BuildConfig, build_dataset
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("captures", type=Path, help="folder of photos (two sub-folders, or one folder with test_* names)")
+    p.add_argument("out", type=Path, help="scene folder to write (Inpaint360GS layout)")
+    p.add_argument("--matcher", choices=["exhaustive", "sequential", "auto"], default="auto",
+                   help="pair selection: exhaustive for small sets, sequential (photos named in capture order) "
+                        "for large ones; auto picks exhaustive up to --exhaustive-max images (default: auto)")
+    p.add_argument("--exhaustive-max", type=int, default=150, help="auto: largest set matched exhaustively (150)")
+    p.add_argument("--overlap", type=int, default=10, help="sequential: neighbours per side (10)")
+    p.add_argument("--cross-pairs", type=int, default=20,
+                   help="sequential: object-inclusive partners per object-free photo (20)")
+    p.add_argument("--camera-model", choices=SUPPORTED_MODELS, default="SIMPLE_RADIAL",
+                   help="shared camera model; distortion models are undistorted to PINHOLE (SIMPLE_RADIAL)")
+    p.add_argument("--camera-params", default="", help="initial intrinsics, comma-separated, in the model's order")
+    p.add_argument("--downscale", type=int, nargs="*", default=[], metavar="F",
+                   help="also write images_F/ copies, e.g. --downscale 2 4 8")
+    p.add_argument("--with-dir", default="with_objects", help="sub-folder of object-inclusive photos")
+    p.add_argument("--without-dir", default="without_objects", help="sub-folder of object-free photos")
+    p.add_argument("--test-prefix", default="test_", help="one-folder layout: prefix of object-free photos")
+    p.add_argument("--unseen-masks", type=Path, default=None,
+                   help="folder of unseen masks (one per object-free photo, same stem, 255 = unseen); copied to unseen_mask/")
+    p.add_argument("--remove-unseen-points", action="store_true",
+                   help="also delete sparse points that an object-free view observes inside its unseen mask")
+    p.add_argument("--skip-unreadable", action="store_true", help="skip corrupt photos (reported) instead of failing")
+    p.add_argument("--require-all-registered", action="store_true",
+                   help="fail when a photo cannot be registered (default: skip it and report)")
+    p.add_argument("--max-features", type=int, default=8192, help="SIFT features per image (8192)")
+    p.add_argument("--threads", type=int, default=2, help="COLMAP threads (2)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--name", default=None, help="scene name in scene.json (default: OUT's folder name)")
+    p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    p.add_argument("--verbose", action="store_true", help="show COLMAP's log")
+    p.add_argument("--no-progress", action="store_true")
+
+
+def config_from_args(args: argparse.Namespace) -> BuildConfig:
+    return BuildConfig(
+        captures=CaptureConfig(
+            with_dir=args.with_dir,
+            without_dir=args.without_dir,
+            test_prefix=args.test_prefix,
+            skip_unreadable=args.skip_unreadable,
+        ),
+        sfm=SfMConfig(
+            camera_model=args.camera_model,
+            camera_params=args.camera_params,
+            matcher=args.matcher,
+            exhaustive_max_images=args.exhaustive_max,
+            overlap=args.overlap,
+            cross_pairs=args.cross_pairs,
+            max_num_features=args.max_features,
+            num_threads=args.threads,
+            seed=args.seed,
+            verbose=args.verbose,
+        ),
+        downscale=tuple(args.downscale),
+        unseen_masks=args.unseen_masks,
+        remove_unseen_points=args.remove_unseen_points,
+        require_all_registered=args.require_all_registered,
+        overwrite=args.overwrite,
+        scene_name=args.name,
+        progress=not args.no_progress,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    report = build_dataset(args.captures, args.out, config_from_args(args))
+    print(report.format())
+    return 0

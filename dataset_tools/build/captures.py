@@ -1,0 +1,171 @@
+"""Find and check the raw captures of a scene: object-inclusive photos and object-free photos.
+
+Two ways to lay out CAPTURES (paper supp. Sec. A: the scene is captured twice, with the objects and
+after physically removing them):
+
+* two folders, ``CAPTURES/with_objects/`` and ``CAPTURES/without_objects/`` (names configurable);
+* one folder holding all photos, where the object-free ones are named ``test_*`` (the prefix of the
+  Inpaint360GS layout; configurable) and every other photo is object-inclusive.
+
+Every photo is decoded once here, so a corrupt or truncated file, a second resolution or two photos
+that would end up under the same name are reported before any SfM work starts.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from PIL import Image
+
+from inpaint360gs.errors import InputError
+
+IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png")
+TEST_PREFIX = "test_"
+
+
+def is_test_name(name: str, prefix: str = TEST_PREFIX) -> bool:
+    """True for object-free (ground-truth) views: their file name starts with ``test_`` (DESIGN.md §3)."""
+    return Path(name).name.startswith(prefix)
+
+
+@dataclass(frozen=True)
+class Capture:
+    """One photo: where it is, whether the objects are in it, and its name in the built scene."""
+
+    source: Path
+    object_free: bool
+    out_name: str  # file name under OUT/images/ (object-free ones start with ``test_``)
+
+
+@dataclass
+class CaptureSet:
+    """All usable photos of one scene plus what was skipped and why."""
+
+    captures: list[Capture]
+    width: int
+    height: int
+    layout: str  # "two-folders" or "one-folder"
+    skipped: dict[str, str] = field(default_factory=dict)  # source path -> reason
+
+    @property
+    def object_inclusive(self) -> list[Capture]:
+        return [c for c in self.captures if not c.object_free]
+
+    @property
+    def object_free(self) -> list[Capture]:
+        return [c for c in self.captures if c.object_free]
+
+
+@dataclass
+class CaptureConfig:
+    """How CAPTURES is laid out."""
+
+    with_dir: str = "with_objects"  # two-folder layout: object-inclusive photos
+    without_dir: str = "without_objects"  # two-folder layout: object-free photos
+    test_prefix: str = TEST_PREFIX  # one-folder layout: object-free photos start with this
+    skip_unreadable: bool = False  # corrupt/truncated photos: error (default) or a reported skip
+
+
+def _list_images(folder: Path, skipped: dict[str, str]) -> list[Path]:
+    files = []
+    for p in sorted(folder.iterdir()):
+        if p.name.startswith("."):
+            continue
+        if p.is_dir():
+            skipped[str(p)] = "sub-folder ignored"
+        elif p.suffix.lower() in IMAGE_SUFFIXES:
+            files.append(p)
+        else:
+            skipped[str(p)] = f"not an image ({', '.join(IMAGE_SUFFIXES)})"
+    return files
+
+
+def read_image_size(path: Path) -> tuple[int, int]:
+    """Decode the whole file (not just the header) and return (width, height).
+
+    Raises InputError for anything PIL cannot fully decode, e.g. a truncated JPEG.
+    """
+    try:
+        with Image.open(path) as im:
+            im.load()
+            return im.size
+    except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as e:
+        raise InputError(f"cannot decode image ({e})", path) from None
+
+
+def collect_captures(root: str | Path, config: CaptureConfig | None = None) -> CaptureSet:
+    """Find the photos under ``root`` and check them; see the module docstring for the layouts."""
+    cfg = config or CaptureConfig()
+    root = Path(root)
+    if not root.is_dir():
+        raise InputError("captures folder does not exist", root)
+    skipped: dict[str, str] = {}
+    with_dir, without_dir = root / cfg.with_dir, root / cfg.without_dir
+    pairs: list[tuple[Path, bool]] = []
+    if with_dir.is_dir() or without_dir.is_dir():
+        layout = "two-folders"
+        for folder, free in ((with_dir, False), (without_dir, True)):
+            if not folder.is_dir():
+                kind = "object-free" if free else "object-inclusive"
+                raise InputError(f"missing folder of {kind} photos (two-folder layout needs both)", folder)
+            for p in _list_images(folder, skipped):
+                if not free and is_test_name(p.name, cfg.test_prefix):
+                    raise InputError(
+                        f"object-inclusive photo starts with '{cfg.test_prefix}', the prefix reserved for "
+                        "object-free views; rename it",
+                        p,
+                    )
+                pairs.append((p, free))
+        for p in sorted(root.iterdir()):
+            if p not in (with_dir, without_dir) and not p.name.startswith("."):
+                skipped[str(p)] = f"not in {cfg.with_dir}/ or {cfg.without_dir}/"
+    else:
+        layout = "one-folder"
+        pairs = [(p, is_test_name(p.name, cfg.test_prefix)) for p in _list_images(root, skipped)]
+
+    captures: list[Capture] = []
+    sizes: dict[Path, tuple[int, int]] = {}
+    for path, free in pairs:
+        try:
+            sizes[path] = read_image_size(path)
+        except InputError as e:
+            if not cfg.skip_unreadable:
+                raise
+            skipped[str(path)] = f"unreadable: {e}"
+            continue
+        name = path.name if (not free or is_test_name(path.name, cfg.test_prefix)) else cfg.test_prefix + path.name
+        captures.append(Capture(source=path, object_free=free, out_name=name))
+
+    # Duplicate names: masks and splits are keyed by the file stem, case-insensitively on some systems.
+    seen: dict[str, Capture] = {}
+    for c in captures:
+        key = Path(c.out_name).stem.lower()
+        if key in seen:
+            raise InputError(
+                f"duplicate name: becomes '{c.out_name}', like {seen[key].source} ('{seen[key].out_name}')", c.source
+            )
+        seen[key] = c
+
+    n_free = sum(c.object_free for c in captures)
+    if n_free == 0:
+        where = without_dir if layout == "two-folders" else root
+        raise InputError(
+            f"no object-free photos found (expected in {cfg.without_dir}/ or named {cfg.test_prefix}*)", where
+        )
+    if len(captures) - n_free < 2:
+        where = with_dir if layout == "two-folders" else root
+        raise InputError("fewer than 2 object-inclusive photos found", where)
+
+    # One shared camera (paper supp. Sec. A) needs one resolution.
+    (width, height), count = Counter(sizes[c.source] for c in captures).most_common(1)[0]
+    for c in captures:
+        if sizes[c.source] != (width, height):
+            w, h = sizes[c.source]
+            raise InputError(
+                f"resolution {w}x{h} differs from {width}x{height} of {count} other photos "
+                "(all photos share one camera, so they need one resolution)",
+                c.source,
+            )
+    return CaptureSet(captures=captures, width=width, height=height, layout=layout, skipped=skipped)

@@ -1,0 +1,309 @@
+"""Joint structure-from-motion of all captures with pycolmap: one shared camera, one coordinate frame.
+
+The paper's dataset (supp. Sec. A) processes the object-inclusive and the object-free sequence of a
+scene jointly with COLMAP, every image sharing one set of intrinsics, and undistorts to a pinhole
+model. This module runs that with pycolmap (SIFT extraction, matching, incremental mapping,
+undistortion); it does not decide what goes into the scene folder (see ``pipeline.py``).
+
+Matching (``SfMConfig.matcher``):
+
+* ``exhaustive``: every pair; best for small captures (cost grows with N²: ~15 s for 64 images of
+  256×192 on 2 cores).
+* ``sequential``: vocabulary-free pairs for long captures taken as walks around the scene:
+  each image with its ``overlap`` neighbours (and ``2^k`` further ones) inside its own sequence,
+  wrapping around because a 360° orbit closes, plus every object-free image against
+  ``cross_pairs`` evenly spaced object-inclusive images so both sequences land in one frame.
+  Photos must be named in capture order. (A vocabulary tree would need a downloaded tree file.)
+* ``auto``: exhaustive up to ``exhaustive_max_images`` images, sequential above.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import struct
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pycolmap
+
+from inpaint360gs.errors import InputError
+
+# Camera models without distortion: nothing to undistort.
+PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")
+SUPPORTED_MODELS = PINHOLE_MODELS + ("SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
+
+ProgressFn = Callable[[str, int, int], None]  # (stage, done, total)
+
+
+@dataclass
+class SfMConfig:
+    """Options of the joint SfM; defaults are COLMAP's unless a comment says otherwise."""
+
+    camera_model: str = "SIMPLE_RADIAL"  # COLMAP's default for photos; PINHOLE/SIMPLE_PINHOLE skip undistortion
+    camera_params: str = ""  # optional initial intrinsics, comma-separated in the model's order
+    matcher: str = "auto"  # exhaustive | sequential | auto (see module docstring)
+    exhaustive_max_images: int = 150  # auto: exhaustive up to this many images (~N²/2 pairs)
+    overlap: int = 10  # sequential: neighbours matched on each side within a sequence
+    cross_pairs: int = 20  # sequential: object-inclusive partners of each object-free image
+    max_num_features: int = 8192  # SIFT features per image (COLMAP default)
+    max_image_size: int = 3200  # longer side is downscaled to this for extraction (COLMAP GUI default)
+    num_threads: int = 2  # this machine has 2 cores
+    seed: int = 0  # RANSAC/mapper seeds: bit-identical runs with num_threads=1; with more, ~1e-4 relative jitter
+    verbose: bool = False  # show COLMAP's own log
+
+    def __post_init__(self) -> None:
+        if self.matcher not in ("exhaustive", "sequential", "auto"):
+            raise InputError(f"unknown matcher '{self.matcher}' (exhaustive, sequential, auto)", "--matcher")
+        if self.camera_model not in SUPPORTED_MODELS:
+            raise InputError(
+                f"unsupported camera model '{self.camera_model}' ({', '.join(SUPPORTED_MODELS)})", "--camera-model"
+            )
+
+
+@dataclass
+class SfMResult:
+    """The chosen (largest) reconstruction and what did not make it into it."""
+
+    reconstruction: pycolmap.Reconstruction
+    unregistered: list[str]  # image names not in the chosen model, sorted
+    model_sizes: list[int]  # registered images of every model COLMAP produced, largest first
+    matcher: str  # the strategy actually used
+    num_pairs: int
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+@contextlib.contextmanager
+def colmap_log(verbose: bool) -> Iterator[None]:
+    """Silence COLMAP's INFO/WARNING log unless asked for (progress bars show what happens)."""
+    old = pycolmap.logging.minloglevel
+    pycolmap.logging.minloglevel = 0 if verbose else 2
+    try:
+        yield
+    finally:
+        pycolmap.logging.minloglevel = old
+
+
+def _pair_list(names: Sequence[str], free: set[str], cfg: SfMConfig) -> tuple[list[tuple[str, str]], str]:
+    """Image pairs to match, and the strategy name."""
+    strategy = cfg.matcher
+    if strategy == "auto":
+        strategy = "exhaustive" if len(names) <= cfg.exhaustive_max_images else "sequential"
+    if strategy == "exhaustive":
+        return list(itertools.combinations(names, 2)), strategy
+    pairs: set[tuple[str, str]] = set()
+    inclusive = [n for n in names if n not in free]
+    object_free = [n for n in names if n in free]
+    for seq in (inclusive, object_free):
+        n = len(seq)
+        offsets = set(range(1, cfg.overlap + 1)) | {2**k for k in range(int(np.log2(max(n, 2))) + 1)}
+        for i in range(n):
+            for d in offsets:
+                if d < n:
+                    a, b = seq[i], seq[(i + d) % n]  # wraps: a 360° orbit closes on itself
+                    pairs.add((a, b) if a < b else (b, a))
+    if inclusive:
+        k = min(cfg.cross_pairs, len(inclusive))
+        for j, f in enumerate(object_free):
+            # evenly spaced partners; successive object-free images shift them by a fraction of the
+            # spacing, so that together they reach every object-inclusive image
+            start = (j * len(inclusive)) // (k * max(len(object_free), 1))
+            for m in range(k):
+                a = inclusive[(start + (m * len(inclusive)) // k) % len(inclusive)]
+                pairs.add((a, f) if a < f else (f, a))
+    return sorted(pairs), strategy
+
+
+def run_sfm(
+    image_dir: Path,
+    names: Sequence[str],
+    object_free: set[str],
+    work_dir: Path,
+    cfg: SfMConfig,
+    progress: ProgressFn | None = None,
+) -> SfMResult:
+    """Extract, match and map ``names`` (files in ``image_dir``) with one shared camera.
+
+    Returns the largest model; images outside it are listed as unregistered (COLMAP may split a
+    capture into several models when parts of it do not overlap).
+    """
+    progress = progress or (lambda stage, done, total: None)
+    work_dir.mkdir(parents=True, exist_ok=True)
+    db_path = work_dir / "database.db"
+    names = list(names)
+    timings: dict[str, float] = {}
+    pycolmap.set_random_seed(cfg.seed)
+    with colmap_log(cfg.verbose):
+        # --- features: chunked so that progress can be shown; chunks after the first reuse the camera
+        t0 = time.perf_counter()
+        reader = pycolmap.ImageReaderOptions()
+        reader.camera_model = cfg.camera_model
+        if cfg.camera_params:
+            reader.camera_params = cfg.camera_params
+        extraction = pycolmap.FeatureExtractionOptions()
+        extraction.num_threads = cfg.num_threads
+        extraction.max_image_size = cfg.max_image_size
+        extraction.sift.max_num_features = cfg.max_num_features
+        chunk = 8
+        for i in range(0, len(names), chunk):
+            pycolmap.extract_features(
+                db_path,
+                image_dir,
+                image_names=names[i : i + chunk],
+                camera_mode=pycolmap.CameraMode.SINGLE,
+                reader_options=reader,
+                extraction_options=extraction,
+                device=pycolmap.Device.cpu,
+            )
+            if i == 0:
+                with contextlib.closing(pycolmap.Database.open(db_path)) as db:
+                    cams = db.read_all_cameras()
+                    if len(cams) != 1:
+                        raise InputError(f"expected one shared camera, COLMAP created {len(cams)}", image_dir)
+                    reader.existing_camera_id = cams[0].camera_id
+            progress("features", min(i + chunk, len(names)), len(names))
+        with contextlib.closing(pycolmap.Database.open(db_path)) as db:
+            if db.num_cameras() != 1 or db.num_images() != len(names):
+                raise InputError(
+                    f"feature extraction read {db.num_images()} of {len(names)} images into "
+                    f"{db.num_cameras()} camera(s)",
+                    image_dir,
+                )
+        timings["features_s"] = time.perf_counter() - t0
+
+        # --- matching + two-view geometric verification, in blocks of pairs (progress)
+        t0 = time.perf_counter()
+        pairs, strategy = _pair_list(names, object_free, cfg)
+        matching = pycolmap.FeatureMatchingOptions()
+        matching.num_threads = cfg.num_threads
+        verification = pycolmap.TwoViewGeometryOptions()
+        verification.ransac.random_seed = cfg.seed
+        block = 256
+        pair_file = work_dir / "pairs.txt"
+        for i in range(0, len(pairs), block):
+            pair_file.write_text("".join(f"{a} {b}\n" for a, b in pairs[i : i + block]))
+            pairing = pycolmap.ImportedPairingOptions()
+            pairing.match_list_path = pair_file
+            pycolmap.match_image_pairs(
+                db_path,
+                matching_options=matching,
+                pairing_options=pairing,
+                verification_options=verification,
+                device=pycolmap.Device.cpu,
+            )
+            progress("matching", min(i + block, len(pairs)), len(pairs))
+        timings["matching_s"] = time.perf_counter() - t0
+
+        # --- incremental mapping
+        t0 = time.perf_counter()
+        opts = pycolmap.IncrementalPipelineOptions()
+        opts.num_threads = cfg.num_threads
+        opts.random_seed = cfg.seed
+        opts.mapper.random_seed = cfg.seed
+        opts.triangulation.random_seed = cfg.seed
+        sparse_dir = work_dir / "sparse"
+        sparse_dir.mkdir(exist_ok=True)
+        registered = [0]
+
+        def _next_image() -> None:
+            registered[0] += 1
+            progress("mapping", min(registered[0], len(names)), len(names))
+
+        models = pycolmap.incremental_mapping(
+            db_path, image_dir, sparse_dir, options=opts, next_image_callback=_next_image
+        )
+        timings["mapping_s"] = time.perf_counter() - t0
+    if not models:
+        raise InputError("COLMAP could not reconstruct the scene (no image pair with enough matches)", image_dir)
+    ordered = sorted(models.values(), key=lambda r: r.num_reg_images(), reverse=True)
+    best = ordered[0]
+    reg = {best.image(i).name for i in best.reg_image_ids()}
+    progress("mapping", len(reg), len(names))
+    return SfMResult(
+        reconstruction=best,
+        unregistered=sorted(set(names) - reg),
+        model_sizes=[r.num_reg_images() for r in ordered],
+        matcher=strategy,
+        num_pairs=len(pairs),
+        timings=timings,
+    )
+
+
+def needs_undistortion(rec: pycolmap.Reconstruction) -> bool:
+    """True when some camera of ``rec`` has a distortion model."""
+    return any(c.model_name not in PINHOLE_MODELS for c in rec.cameras.values())
+
+
+def undistort(rec_dir: Path, image_dir: Path, out_dir: Path, num_threads: int = 2, verbose: bool = False) -> Path:
+    """Undistort ``rec_dir``'s images to a PINHOLE camera with pycolmap; returns the output folder.
+
+    ``out_dir/images`` and ``out_dir/sparse`` hold the result. COLMAP crops to the valid region, so the
+    image size may shrink by a few pixels.
+    """
+    with colmap_log(verbose):
+        pycolmap.undistort_images(out_dir, rec_dir, image_dir, num_threads=num_threads)
+    return out_dir
+
+
+def undistortion_options() -> pycolmap.UndistortCameraOptions:
+    """The options ``undistort`` uses (pycolmap defaults), for warping masks the same way."""
+    return pycolmap.UndistortCameraOptions()
+
+
+def undistort_mask(mask: np.ndarray, camera: pycolmap.Camera) -> np.ndarray:
+    """Warp a binary (H, W) mask taken with ``camera`` into the undistorted PINHOLE image."""
+    bitmap = pycolmap.Bitmap.from_array(np.ascontiguousarray(mask.astype(np.uint8) * 255))
+    out, _ = pycolmap.undistort_image(undistortion_options(), bitmap, camera)
+    return out.to_array() >= 128
+
+
+def to_pinhole(rec: pycolmap.Reconstruction) -> None:
+    """Rewrite SIMPLE_PINHOLE cameras as PINHOLE (fx = fy = f), the model the scene layout uses."""
+    for cam in rec.cameras.values():
+        if cam.model_name == "SIMPLE_PINHOLE":
+            f, cx, cy = cam.params
+            new = pycolmap.Camera(
+                model="PINHOLE", width=cam.width, height=cam.height, params=[f, f, cx, cy], camera_id=cam.camera_id
+            )
+            cam.model = new.model
+            cam.params = new.params
+
+
+# Smallest record of each COLMAP binary file (bytes), for a cheap plausibility check of the counts.
+_MIN_RECORD = {"cameras.bin": 24, "images.bin": 73, "points3D.bin": 51, "rigs.bin": 8, "frames.bin": 8}
+
+
+def read_model(path: str | Path) -> pycolmap.Reconstruction:
+    """Read a COLMAP model folder, turning corrupt files into InputError.
+
+    pycolmap trusts the element counts at the head of binary files: a truncated or garbage file can
+    make it allocate for minutes and then fail, so the counts are checked against the file sizes first.
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise InputError("sparse model folder missing", path)
+    has_bin = all((path / f).is_file() for f in ("cameras.bin", "images.bin", "points3D.bin"))
+    has_txt = all((path / f).is_file() for f in ("cameras.txt", "images.txt", "points3D.txt"))
+    if not (has_bin or has_txt):
+        raise InputError("no cameras/images/points3D .bin or .txt files", path)
+    if has_bin:
+        for name, min_rec in _MIN_RECORD.items():
+            f = path / name
+            if not f.is_file():
+                continue
+            size = f.stat().st_size
+            if size < 8:
+                raise InputError(f"truncated ({size} bytes)", f)
+            with f.open("rb") as fh:
+                (count,) = struct.unpack("<Q", fh.read(8))
+            if count * min_rec > size - 8:
+                raise InputError(f"corrupt: header claims {count} entries, the file holds at most {(size - 8) // min_rec}", f)
+    try:
+        with colmap_log(False):
+            return pycolmap.Reconstruction(path)
+    except (RuntimeError, ValueError, IndexError, MemoryError, OSError) as e:
+        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise InputError(f"unreadable COLMAP model ({msg})", path) from None

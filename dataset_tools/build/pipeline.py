@@ -1,0 +1,263 @@
+"""``build``: raw captures -> an Inpaint360GS scene folder (DESIGN.md §3), written atomically.
+
+Steps (paper supp. Sec. A): check the photos; joint SfM of all of them with one shared camera;
+undistort to PINHOLE when the camera model has distortion; remove leaked points (and optionally
+points seen inside given unseen masks); write images (object-free ones as ``test_*``), ``sparse/0``,
+downscaled copies, ``unseen_mask/`` when given, ``scene.json`` and ``build_report.json``.
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pycolmap
+
+from dataset_tools.build.captures import CaptureConfig, CaptureSet, collect_captures
+from dataset_tools.build.colmap import SfMConfig, needs_undistortion, run_sfm, to_pinhole, undistort, undistort_mask
+from dataset_tools.build.layout import (
+    copy_images,
+    find_mask,
+    provenance,
+    read_mask,
+    write_downscaled,
+    write_json,
+    write_mask,
+)
+from dataset_tools.build.leaks import remove_leaked_points, remove_points_in_masks
+from dataset_tools.build.progress import StageProgress
+from inpaint360gs.errors import InputError
+from inpaint360gs.io.atomic import atomic_dir
+
+
+@dataclass
+class BuildConfig:
+    """Everything ``build`` needs besides the two paths."""
+
+    captures: CaptureConfig = field(default_factory=CaptureConfig)
+    sfm: SfMConfig = field(default_factory=SfMConfig)
+    downscale: tuple[int, ...] = ()  # e.g. (2, 4, 8): writes images_2/, images_4/, images_8/
+    unseen_masks: Path | None = None  # folder of unseen masks for the object-free views (optional)
+    remove_unseen_points: bool = False  # also delete points observed inside those masks
+    require_all_registered: bool = False  # unregistered photos: reported skip (default) or an error
+    overwrite: bool = False
+    scene_name: str | None = None  # default: OUT's folder name
+    progress: bool = True
+
+
+@dataclass
+class BuildReport:
+    """What the build did; written to OUT/build_report.json and printed."""
+
+    out: str
+    captures: dict
+    registration: dict
+    points: dict
+    output: dict
+    timings: dict
+    leaked_xyz: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)  # removed points, never written
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in ("out", "captures", "registration", "points", "output", "timings")}
+
+    def format(self) -> str:
+        c, r, p, o = self.captures, self.registration, self.points, self.output
+        lines = [
+            f"built {self.out}",
+            f"  photos: {c['object_inclusive']} object-inclusive + {c['object_free']} object-free "
+            f"({c['width']}x{c['height']}, {c['layout']}); skipped {len(c['skipped'])}",
+            f"  registered {r['registered']}/{r['total']} images with one {r['camera']['model']} camera "
+            f"(matcher {r['matcher']}, {r['pairs']} pairs); mean reprojection error {r['mean_reprojection_error_px']:.3f} px",
+        ]
+        for name, src in r["unregistered"].items():
+            lines.append(f"  not registered (skipped): {src}")
+        for src, why in c["skipped"].items():
+            lines.append(f"  skipped: {src}: {why}")
+        leak = p["leak_removal"]
+        lines.append(
+            f"  points: {p['sfm']} from SfM, {p['after_undistortion']} after undistortion, "
+            f"{leak['removed']} leaked removed ({leak['reason']}), "
+            f"{p['unseen_mask_removed']} removed inside unseen masks -> {p['final']}"
+        )
+        lines.append(
+            f"  output: {o['num_train_images']} object-inclusive + {o['num_test_images']} test_ images at "
+            f"{o['width']}x{o['height']} PINHOLE{'(undistorted)' if o['undistorted'] else ''}; "
+            f"downscaled {sorted(o['downscaled']) or 'none'}; unseen masks {o['unseen_masks']}"
+        )
+        lines.append(f"  time: {self.timings['total_s']:.1f} s")
+        return "\n".join(lines)
+
+
+def _load_unseen_masks(cset: CaptureSet, mask_dir: Path) -> dict[str, np.ndarray]:
+    """Masks for every object-free photo, keyed by its output name; sizes must match the photos."""
+    if not mask_dir.is_dir():
+        raise InputError("unseen-mask folder does not exist", mask_dir)
+    masks = {}
+    for c in cset.object_free:
+        path = find_mask(mask_dir, [Path(c.out_name).stem, c.source.stem])
+        if path is None:
+            raise InputError(f"no unseen mask for {c.source.name} (expected {Path(c.out_name).stem}.png)", mask_dir)
+        m = read_mask(path)
+        if m.shape != (cset.height, cset.width):
+            raise InputError(
+                f"mask is {m.shape[1]}x{m.shape[0]}, its photo {c.source.name} is {cset.width}x{cset.height}", path
+            )
+        masks[c.out_name] = m
+    return masks
+
+
+def _camera_dict(cam: pycolmap.Camera) -> dict:
+    return {"model": cam.model_name, "width": cam.width, "height": cam.height, "params": [float(v) for v in cam.params]}
+
+
+def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | None = None) -> BuildReport:
+    """Build a scene folder at ``out`` from the photos under ``captures``; returns the report.
+
+    Nothing is written under ``out`` unless the whole build succeeds.
+    """
+    cfg = config or BuildConfig()
+    t_start = time.perf_counter()
+    out = Path(out)
+    cset = collect_captures(captures, cfg.captures)
+    masks = _load_unseen_masks(cset, Path(cfg.unseen_masks)) if cfg.unseen_masks is not None else None
+    if cfg.remove_unseen_points and masks is None:
+        raise InputError("removing points inside unseen masks needs --unseen-masks", "--remove-unseen-points")
+    source_of = {c.out_name: str(c.source) for c in cset.captures}
+    free_names = {c.out_name for c in cset.object_free}
+    names = sorted(source_of)
+
+    with atomic_dir(out, overwrite=cfg.overwrite) as tmp, StageProgress(cfg.progress) as progress:
+        work = tmp / ".work"
+        staged = work / "images"
+        staged.mkdir(parents=True)
+        for c in cset.captures:
+            shutil.copy2(c.source, staged / c.out_name)
+
+        sfm = run_sfm(staged, names, free_names, work, cfg.sfm, progress)
+        rec = sfm.reconstruction
+        registered = {rec.image(i).name for i in rec.reg_image_ids()}
+        reg_free = registered & free_names
+        if not reg_free:
+            raise InputError(f"none of the {len(free_names)} object-free photos could be registered", captures)
+        if len(registered - free_names) < 2:
+            raise InputError("fewer than 2 object-inclusive photos could be registered", captures)
+        if cfg.require_all_registered and sfm.unregistered:
+            first = source_of[sfm.unregistered[0]]
+            raise InputError(f"could not be registered ({len(sfm.unregistered)} photos failed in all)", first)
+        c0 = next(iter(rec.cameras.values()))
+        sfm_camera = pycolmap.Camera(  # a copy: rec is replaced after undistortion
+            model=c0.model_name, width=c0.width, height=c0.height, params=list(c0.params), camera_id=c0.camera_id
+        )
+        registration = {
+            "registered": len(registered),
+            "total": len(names),
+            "unregistered": {n: source_of[n] for n in sfm.unregistered},
+            "models": sfm.model_sizes,
+            "matcher": sfm.matcher,
+            "pairs": sfm.num_pairs,
+            "mean_reprojection_error_px": float(rec.compute_mean_reprojection_error()),
+            "mean_track_length": float(rec.compute_mean_track_length()),
+            "camera": _camera_dict(sfm_camera),
+        }
+        n_sfm = rec.num_points3D()
+
+        # Undistort to PINHOLE (paper supp. Sec. A) when the model has distortion.
+        undistorted = needs_undistortion(rec)
+        if undistorted:
+            raw = work / "sparse_raw"
+            raw.mkdir()
+            rec.write(raw)
+            progress("undistort", 0, 1)
+            undistort(raw, staged, work / "undistorted", cfg.sfm.num_threads, cfg.sfm.verbose)
+            progress("undistort", 1, 1)
+            rec = pycolmap.Reconstruction(work / "undistorted" / "sparse")
+            image_src = work / "undistorted" / "images"
+            if masks is not None:
+                masks = {n: undistort_mask(m, sfm_camera) for n, m in masks.items()}
+        else:
+            to_pinhole(rec)
+            image_src = staged
+        n_undist = rec.num_points3D()
+
+        leak = remove_leaked_points(rec)
+        masked_removed = 0
+        if masks is not None:
+            masks = {n: m for n, m in masks.items() if n in registered}
+            if cfg.remove_unseen_points:
+                masked_removed = remove_points_in_masks(rec, masks)
+
+        cam = next(iter(rec.cameras.values()))
+        out_names = sorted(registered)
+        progress("writing", 0, len(out_names))
+        copy_images(image_src, out_names, tmp / "images")
+        (tmp / "sparse" / "0").mkdir(parents=True)
+        rec.write(tmp / "sparse" / "0")
+        if masks is not None:
+            for name, m in masks.items():
+                write_mask(tmp / "unseen_mask" / f"{Path(name).stem}.png", m)
+        downscaled = write_downscaled(tmp / "images", out_names, tmp, cfg.downscale)
+        progress("writing", len(out_names), len(out_names))
+        shutil.rmtree(work)
+
+        n_test = len(reg_free)
+        report = BuildReport(
+            out=str(out),
+            captures={
+                "root": str(Path(captures).resolve()),
+                "layout": cset.layout,
+                "object_inclusive": len(cset.object_inclusive),
+                "object_free": len(cset.object_free),
+                "width": cset.width,
+                "height": cset.height,
+                "skipped": cset.skipped,
+            },
+            registration=registration,
+            points={
+                "sfm": n_sfm,
+                "after_undistortion": n_undist,
+                "leak_removal": leak.to_dict(),
+                "unseen_mask_removed": masked_removed,
+                "final": rec.num_points3D(),
+                "mean_reprojection_error_px": float(rec.compute_mean_reprojection_error()),
+            },
+            output={
+                "undistorted": undistorted,
+                "camera": _camera_dict(cam),
+                "width": cam.width,
+                "height": cam.height,
+                "num_train_images": len(out_names) - n_test,
+                "num_test_images": n_test,
+                "downscaled": downscaled,
+                "unseen_masks": len(masks) if masks is not None else 0,
+            },
+            timings={**{k: round(v, 2) for k, v in sfm.timings.items()}, "total_s": time.perf_counter() - t_start},
+            leaked_xyz=leak.removed_xyz,
+        )
+        sfm_cfg = asdict(cfg.sfm)
+        write_json(
+            tmp / "scene.json",
+            {
+                "name": cfg.scene_name or out.name,
+                "objects": [],
+                "removal_targets": [],
+                "source": "captures",
+                "provenance": provenance(
+                    "inpaint360gs-dataset build",
+                    {
+                        "captures": asdict(cfg.captures),
+                        "sfm": sfm_cfg,
+                        "downscale": list(cfg.downscale),
+                        "unseen_masks": str(cfg.unseen_masks) if cfg.unseen_masks else None,
+                        "remove_unseen_points": cfg.remove_unseen_points,
+                    },
+                    captures=str(Path(captures).resolve()),
+                    colmap=pycolmap.COLMAP_version,
+                ),
+            },
+        )
+        report.timings["total_s"] = round(time.perf_counter() - t_start, 2)
+        write_json(tmp / "build_report.json", report.to_dict())
+    return report

@@ -1,0 +1,60 @@
+"""A synthetic benchmark scene whose poses and sparse points come from COLMAP instead of the generator.
+
+The workflow's ``poses: colmap`` switch (issue 3): the generated scene is exported as plain photos,
+``build`` reconstructs it (joint SfM, one shared camera, leak removal), and the generator's exact
+unseen masks, object list and ``gt/`` are carried over. The camera model is SIMPLE_PINHOLE: the
+generator renders an ideal pinhole with square pixels, so there is nothing to undistort and every
+per-view ground-truth file keeps its size. ``gt/`` stays in the generator's frame and units;
+``gt/colmap_frame.json`` holds the similarity that maps the COLMAP frame onto it.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from dataset_tools.build.colmap import read_model
+from dataset_tools.build.layout import write_json
+from dataset_tools.build.pipeline import BuildConfig, BuildReport, build_dataset
+from dataset_tools.build.posecheck import pose_accuracy, reconstruction_poses, similarity_to_true
+from dataset_tools.build.synth_export import export_raw_captures, orbit_radius, true_poses
+from inpaint360gs.errors import InputError
+from inpaint360gs.io.atomic import atomic_dir
+
+
+def build_synthetic_with_colmap(
+    truth: str | Path, out: str | Path, config: BuildConfig | None = None, overwrite: bool = False
+) -> BuildReport:
+    """Rebuild generated scene ``truth`` through COLMAP into ``out`` (atomically); returns the build report."""
+    truth, out = Path(truth), Path(out)
+    if not (truth / "gt" / "cameras.json").is_file():
+        raise InputError("not a generated synthetic scene (gt/cameras.json missing)", truth)
+    cfg = config or BuildConfig()
+    cfg = replace(cfg, sfm=replace(cfg.sfm, camera_model="SIMPLE_PINHOLE"), overwrite=True, scene_name=truth.name)
+    with atomic_dir(out, overwrite=overwrite) as tmp, tempfile.TemporaryDirectory(dir=tmp.parent) as work:
+        cap = export_raw_captures(truth, Path(work) / "captures", unseen_masks=True)
+        masks = shutil.move(str(cap / "unseen_masks"), Path(work) / "unseen_masks")  # not a capture folder
+        built = Path(work) / "scene"
+        report = build_dataset(cap, built, replace(cfg, unseen_masks=Path(masks)))
+        for item in built.iterdir():
+            shutil.move(str(item), tmp / item.name)
+        shutil.copytree(truth / "gt", tmp / "gt")
+        rec = read_model(tmp / "sparse" / "0")
+        est, gt = reconstruction_poses(rec), true_poses(truth)
+        M = similarity_to_true(est, gt)
+        acc = pose_accuracy(est, gt, orbit_radius(truth))
+        write_json(tmp / "gt" / "colmap_frame.json", {
+            "true_from_colmap": {"scale": float(np.linalg.norm(M[:, 0])), "matrix_3x4": M.tolist()},
+            "note": "gt/ stays in the generator's frame and units; x_true = matrix_3x4 @ [x_colmap, 1]",
+            "pose_accuracy": acc.to_dict(),
+        })
+        meta = json.loads((truth / "scene.json").read_text())
+        built_meta = json.loads((tmp / "scene.json").read_text())
+        meta["provenance"] = {**meta.get("provenance", {}), "poses": "colmap", "build": built_meta["provenance"]}
+        write_json(tmp / "scene.json", meta)
+    return report

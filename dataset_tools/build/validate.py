@@ -1,0 +1,231 @@
+"""``validate``: check a scene folder against the Inpaint360GS layout (DESIGN.md §3) and say what is wrong.
+
+Reads the folder with pycolmap directly (no dependency on the method's scene loader). Every check
+yields PASS, WARN or FAIL with a one-line reason; the scene is valid when nothing FAILs.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from dataset_tools.build.captures import IMAGE_SUFFIXES, is_test_name, read_image_size
+from dataset_tools.build.colmap import PINHOLE_MODELS, read_model
+from dataset_tools.build.layout import find_mask, read_image, scaled_size
+from dataset_tools.build.leaks import leaked_point_ids
+from inpaint360gs.errors import InputError
+
+LLFFHOLD = 8  # every 8th non-test image (sorted by name) is a held-out view (DESIGN.md §3)
+
+
+@dataclass
+class Check:
+    name: str
+    status: str  # "pass" | "warn" | "fail"
+    detail: str
+
+
+@dataclass
+class ValidationReport:
+    scene: str
+    checks: list[Check] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not any(c.status == "fail" for c in self.checks)
+
+    def add(self, name: str, status: str, detail: str) -> None:
+        self.checks.append(Check(name, status, detail))
+
+    def failed(self) -> list[Check]:
+        return [c for c in self.checks if c.status == "fail"]
+
+    def format(self) -> str:
+        lines = [f"validate {self.scene}"]
+        lines += [f"  [{c.status.upper():4}] {c.name}: {c.detail}" for c in self.checks]
+        n_fail = len(self.failed())
+        lines.append(f"  => {'PASS' if self.ok else 'FAIL'} ({n_fail} failed, "
+                     f"{sum(c.status == 'warn' for c in self.checks)} warnings, {len(self.checks)} checks)")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict:
+        return {"scene": self.scene, "ok": self.ok, "checks": [asdict(c) for c in self.checks]}
+
+
+def _few(items, n: int = 3) -> str:
+    items = sorted(items)
+    return ", ".join(items[:n]) + (f" (+{len(items) - n} more)" if len(items) > n else "")
+
+
+def _check_masks(report: ValidationReport, name: str, folder: Path, stems: dict[str, tuple[int, int]],
+                 required: bool) -> None:
+    """Each stem needs ``folder/<stem>.png`` of the given (w, h); ``required`` turns missing into FAIL."""
+    if not folder.is_dir():
+        report.add(name, "fail" if required else "pass",
+                   f"{folder.name}/ missing" if required else f"{folder.name}/ absent (optional)")
+        return
+    missing, wrong, nonbinary = [], [], []
+    for stem, (w, h) in stems.items():
+        path = find_mask(folder, [stem])
+        if path is None:
+            missing.append(stem)
+            continue
+        try:
+            img = read_image(path)
+        except InputError:
+            wrong.append(f"{path.name} unreadable")
+            continue
+        if img.shape[:2] != (h, w):
+            wrong.append(f"{path.name} is {img.shape[1]}x{img.shape[0]}, image is {w}x{h}")
+        elif name == "unseen masks" and not np.isin(np.unique(img), (0, 255)).all():
+            nonbinary.append(path.name)
+    problems = []
+    if missing:
+        problems.append(f"{len(missing)} missing: {_few(missing)}")
+    if wrong:
+        problems.append(f"{len(wrong)} wrong: {_few(wrong)}")
+    if missing and not required and not wrong:
+        report.add(name, "warn", "; ".join(problems))
+    elif problems:
+        report.add(name, "fail", "; ".join(problems))
+    elif nonbinary:
+        report.add(name, "warn", f"{len(stems)} present and sized right; {len(nonbinary)} not 0/255: {_few(nonbinary)}")
+    else:
+        report.add(name, "pass", f"{len(stems)} present, sized right")
+
+
+def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_images: bool = True) -> ValidationReport:
+    """Check ``scene``; see the module docstring. Never raises for a bad folder, it reports it."""
+    scene = Path(scene)
+    report = ValidationReport(str(scene))
+    if not scene.is_dir():
+        report.add("scene folder", "fail", "does not exist")
+        return report
+
+    # --- images
+    img_dir = scene / "images"
+    files = sorted(p.name for p in img_dir.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES) if img_dir.is_dir() else []
+    if not files:
+        report.add("images", "fail", "images/ missing or holds no .jpg/.png")
+    test_files = [f for f in files if is_test_name(f)]
+    other = [f for f in files if not is_test_name(f)]
+    held_out = other[::LLFFHOLD]
+    n_train = len(other) - len(held_out)
+    if files:
+        ok_split = bool(test_files) and n_train > 0
+        report.add("split", "pass" if ok_split else "fail",
+                   f"{n_train} training + {len(held_out)} held-out (llffhold={LLFFHOLD}) + {len(test_files)} test_ views"
+                   + ("" if ok_split else " (need >= 1 training and >= 1 test_ view)"))
+
+    # --- sparse model
+    sparse = scene / "sparse" / "0"
+    try:
+        rec = read_model(sparse)
+    except InputError as e:
+        report.add("sparse/0", "fail", str(e))
+        return report
+    report.add("sparse/0", "pass",
+               f"{rec.num_reg_images()} images, {rec.num_cameras()} camera(s), {rec.num_points3D()} points")
+
+    # --- cameras
+    models = {c.model_name for c in rec.cameras.values()}
+    bad = models - set(PINHOLE_MODELS)
+    report.add("camera model", "fail" if bad else "pass",
+               f"{', '.join(sorted(models))}" + (" has distortion: undistort to PINHOLE first" if bad else ""))
+    if rec.num_cameras() > 1:
+        report.add("shared camera", "warn", f"{rec.num_cameras()} cameras; the protocol shares one")
+
+    # --- registration: every file registered, every registered image has a file, sizes match
+    by_name = {im.name: im for im in rec.images.values() if im.has_pose}
+    unregistered = [f for f in files if f not in by_name]
+    no_file = [n for n in by_name if n not in set(files)]
+    status = "fail" if unregistered or no_file else "pass"
+    detail = f"all {len(files)} images registered"
+    if status == "fail":
+        detail = "; ".join(
+            x for x in (f"{len(unregistered)} not in sparse/0: {_few(unregistered)}" if unregistered else "",
+                        f"{len(no_file)} registered without a file: {_few(no_file)}" if no_file else "") if x
+        )
+    report.add("registration", status, detail)
+
+    sizes: dict[str, tuple[int, int]] = {}
+    wrong_size, unreadable = [], []
+    for f in files:
+        try:
+            if decode_images:
+                w, h = read_image_size(img_dir / f)
+            else:
+                from PIL import Image
+
+                with Image.open(img_dir / f) as im:
+                    w, h = im.size
+        except (InputError, OSError):
+            unreadable.append(f)
+            continue
+        sizes[Path(f).stem] = (w, h)
+        if f in by_name:
+            cam = rec.camera(by_name[f].camera_id)
+            if (cam.width, cam.height) != (w, h):
+                wrong_size.append(f"{f} is {w}x{h}, camera {cam.width}x{cam.height}")
+    if unreadable or wrong_size:
+        report.add("image files", "fail", "; ".join(
+            x for x in (f"unreadable: {_few(unreadable)}" if unreadable else "",
+                        f"size mismatch: {_few(wrong_size)}" if wrong_size else "") if x))
+    else:
+        report.add("image files", "pass", f"{len(sizes)} decode, sizes match their camera")
+
+    # --- downscaled copies
+    for d in sorted(scene.glob("images_*")):
+        try:
+            factor = int(d.name.split("_", 1)[1])
+        except ValueError:
+            continue
+        problems = []
+        checked = [f for f in files if f in by_name]
+        for f in checked:
+            p = d / f
+            if not p.is_file():
+                problems.append(f"{f} missing")
+                continue
+            from PIL import Image
+
+            with Image.open(p) as im:
+                got = im.size
+            cam = rec.camera(by_name[f].camera_id)
+            want = scaled_size(cam.width, cam.height, factor)
+            if got != want:
+                problems.append(f"{f} is {got[0]}x{got[1]}, expected {want[0]}x{want[1]}")
+        report.add(f"{d.name}/", "fail" if problems else "pass",
+                   _few(problems) if problems else f"{len(checked)} registered images at 1/{factor}")
+
+    # --- masks
+    _check_masks(report, "unseen masks", scene / "unseen_mask",
+                 {Path(f).stem: sizes[Path(f).stem] for f in test_files if Path(f).stem in sizes},
+                 required=require_unseen_masks)
+    if (scene / "object_mask").is_dir():
+        _check_masks(report, "object masks", scene / "object_mask",
+                     {Path(f).stem: sizes[Path(f).stem] for f in other if Path(f).stem in sizes}, required=False)
+
+    # --- point leaks (DESIGN.md §3: no point that only a test view sees)
+    if rec.num_points3D() == 0:
+        report.add("sparse points", "fail", "no 3D points (3DGS is initialised from them)")
+    leaked = leaked_point_ids(rec)
+    report.add("point leaks", "fail" if leaked else "pass",
+               f"{len(leaked)} of {rec.num_points3D()} points observed only by test_ views" if leaked
+               else f"every one of {rec.num_points3D()} points has an object-inclusive observation")
+
+    # --- scene.json
+    sj = scene / "scene.json"
+    if not sj.is_file():
+        report.add("scene.json", "warn", "missing (objects, removal targets and provenance unknown)")
+    else:
+        try:
+            data = json.loads(sj.read_text())
+            report.add("scene.json", "pass" if isinstance(data, dict) else "fail",
+                       "parses" if isinstance(data, dict) else "is not a JSON object")
+        except (json.JSONDecodeError, UnicodeDecodeError) as e:
+            report.add("scene.json", "fail", f"not valid JSON ({e})")
+    return report

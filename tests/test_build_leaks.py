@@ -1,0 +1,95 @@
+"""Point-leak removal on hand-built reconstructions: exact ids, counts and cleared references."""
+
+from __future__ import annotations
+
+import numpy as np
+import pycolmap
+
+from dataset_tools.build import handmade as hm
+from dataset_tools.build.leaks import leaked_point_ids, remove_leaked_points, remove_points_in_masks
+
+NAMES = ["IMG_a.png", "IMG_b.png", "IMG_c.png", "test_x.png", "test_y.png"]  # ids 1..5; 4, 5 object-free
+
+
+def _rec(tracks: list[list[tuple[int, int]]], kps_per_image: int = 6) -> pycolmap.Reconstruction:
+    rec = pycolmap.Reconstruction()
+    rec.add_camera_with_trivial_rig(pycolmap.Camera(model="PINHOLE", width=40, height=30,
+                                                    params=[50, 50, 20, 15], camera_id=1))
+    kp = np.array([[2.5 + 5 * k, 3.5 + 4 * k] for k in range(kps_per_image)])
+    for iid, name in enumerate(NAMES, start=1):
+        rec.add_image_with_trivial_frame(pycolmap.Image(name=name, keypoints=kp, camera_id=1, image_id=iid),
+                                         pycolmap.Rigid3d(pycolmap.Rotation3d(), np.array([0.1 * iid, 0, 0])))
+    for k, tr in enumerate(tracks):
+        rec.add_point3D(np.array([0.0, 0.0, 5.0 + k]),
+                        pycolmap.Track([pycolmap.TrackElement(i, j) for i, j in tr]))
+    return rec
+
+
+TRACKS = [
+    [(1, 0), (2, 0)],  # 1: training only -> kept
+    [(4, 0), (5, 0)],  # 2: test only -> leaked
+    [(1, 1), (4, 1)],  # 3: training + test -> kept
+    [(5, 2), (4, 2)],  # 4: test only -> leaked
+    [(3, 3), (4, 3), (5, 3)],  # 5: one training observation suffices -> kept
+    [(4, 4), (5, 4)],  # 6: test only -> leaked
+]
+
+
+def test_leaked_points_are_exactly_the_test_only_tracks():
+    rec = _rec(TRACKS)
+    assert sorted(leaked_point_ids(rec)) == [2, 4, 6]
+    rep = remove_leaked_points(rec)
+    assert (rep.points_before, rep.removed, rep.points_after) == (6, 3, 3)
+    assert sorted(rec.points3D) == [1, 3, 5]
+    assert rep.removed_by_test_views == {"test_x.png": 3, "test_y.png": 3}
+    # references in the images are cleared: test_x keeps only the observations of points 3 and 5
+    tx = rec.image(4)
+    assert [k for k, p in enumerate(tx.points2D) if p.has_point3D()] == [1, 3]
+    assert tx.num_points3D == 2 and rec.image(5).num_points3D == 1
+    assert leaked_point_ids(rec) == []
+    assert remove_leaked_points(rec).removed == 0  # idempotent
+
+
+def test_leak_removal_survives_a_write_read_round_trip(tmp_path):
+    rec = _rec(TRACKS)
+    remove_leaked_points(rec)
+    rec.write(tmp_path)
+    back = pycolmap.Reconstruction(tmp_path)
+    assert sorted(back.points3D) == [1, 3, 5] and leaked_point_ids(back) == []
+
+
+def test_custom_inclusive_rule():
+    rec = _rec(TRACKS)
+    # with IMG_c no longer counted as object-inclusive, point 5 (IMG_c + test views) leaks too
+    leaked = leaked_point_ids(rec, lambda n: n in ("IMG_a.png", "IMG_b.png"))
+    assert sorted(leaked) == [2, 4, 5, 6]
+
+
+def test_points_inside_unseen_masks_use_observations_and_pixel_centres():
+    rec = _rec(TRACKS)
+    remove_leaked_points(rec)  # points 1, 3, 5 remain; test_x observes 3 (kp 1) and 5 (kp 3)
+    # keypoint 1 is at (7.5, 7.5) -> pixel (row 7, col 7); keypoint 3 at (17.5, 15.5) -> (15, 17)
+    mask = np.zeros((30, 40), bool)
+    mask[7, 7] = True
+    assert remove_points_in_masks(rec, {"test_x.png": mask}) == 1
+    assert sorted(rec.points3D) == [1, 5]
+    mask = np.zeros((30, 40), bool)
+    mask[15, 16] = True  # the pixel left of keypoint 3: not observed there
+    mask[16, 17] = True  # the pixel below
+    assert remove_points_in_masks(rec, {"test_x.png": mask}) == 0
+    mask[15, 17] = True
+    assert remove_points_in_masks(rec, {"test_x.png": mask, "unknown.png": mask}) == 1
+    assert sorted(rec.points3D) == [1]
+
+
+def test_handmade_scene_leaks_are_the_floor_under_the_box():
+    scene = hm.make_scene()
+    rec = hm.build_reconstruction(scene)
+    leaked = leaked_point_ids(rec)
+    X = np.array([rec.point3D(i).xyz for i in leaked])
+    # every leaked floor point lies under the box footprint, and every footprint point seen by test views leaked
+    assert np.all((np.abs(X[:, 0]) <= 0.5 + 1e-9) & (np.abs(X[:, 1]) <= 0.5 + 1e-9))
+    under = [pid for pid, p in rec.points3D.items() if np.all(np.abs(p.xyz[:2]) < 0.5 - 1e-6)]
+    assert set(under) <= set(leaked) and len(under) == 81  # 9 x 9 grid points strictly inside
+    rep = remove_leaked_points(rec)
+    assert rep.removed == len(leaked) and rep.points_after == rep.points_before - len(leaked)
