@@ -156,6 +156,10 @@ def test_cli_train_and_render(tiny_scene, tmp_path, monkeypatch, capsys):
     assert conf["config"]["schedule_scale"] == pytest.approx(30 / 30000) and conf["effective_config"]["densify"]["densify_until"] == 15
     assert main(argv) == 2 and "--resume" in capsys.readouterr().err  # existing run, no --resume
     assert main(argv + ["--resume"]) == 0  # already complete: re-evaluates and rewrites outputs
+    before = json.loads((out / "metrics.json").read_text())
+    assert main(argv + ["--overwrite"]) == 0  # a fresh run over the old one: same seed, same model
+    after = json.loads((out / "metrics.json").read_text())
+    assert (after["psnr"], after["num_gaussians"]) == (before["psnr"], before["num_gaussians"])
 
     import inpaint360gs.io.images as images
 

@@ -78,6 +78,23 @@ def test_clone_small_high_gradient_gaussians():
     assert all(v.shape[0] == 3 and not v.any() for v in st.values())  # statistics restart
 
 
+def test_gaussian_cap_keeps_the_largest_gradients():
+    # four small Gaussians, all candidates for cloning (+1 each): cap 6 leaves room for 2 of them
+    params, opts = hand_built(scales=[[0.05] * 3] * 4, opacities=[0.5] * 4)
+    s = DensifyStrategy(DensifyConfig(max_gaussians=6), EXTENT)
+    st = state_with_grads(s, 4, [3e-4, 9e-4, 5e-4, 7e-4])
+    old = params["means"].detach().clone()
+    stats = s.densify_and_prune(params, opts, st, prune_big=False)
+    assert (stats.cloned, stats.split) == (2, 0)
+    assert torch.equal(params["means"].detach()[4:], old[[1, 3]])  # gradients 9e-4 and 7e-4 won
+    # at the cap nothing densifies; without a cap (the original) all four would
+    st = state_with_grads(s, 6, [1e-3] * 6)
+    assert s.densify_and_prune(params, opts, st, prune_big=False).cloned == 0
+    params, opts = hand_built(scales=[[0.05] * 3] * 4, opacities=[0.5] * 4)
+    s = DensifyStrategy(DensifyConfig(), EXTENT)
+    assert s.densify_and_prune(params, opts, state_with_grads(s, 4, [3e-4, 9e-4, 5e-4, 7e-4]), prune_big=False).cloned == 4
+
+
 def test_split_large_high_gradient_gaussians():
     q = torch.nn.functional.normalize(torch.tensor([[0.9, 0.1, -0.3, 0.2]]), dim=-1)
     params, opts = hand_built(scales=[[0.5, 0.2, 0.3], [0.5, 0.5, 0.5]], opacities=[0.5, 0.5], quats=[q[0].tolist(), [1, 0, 0, 0]])

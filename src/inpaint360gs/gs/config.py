@@ -36,6 +36,10 @@ class DensifyConfig:
     densify_every: int = 100
     opacity_reset_every: int = 3000
     opacity_reset_value: float = 0.01  # opacities are clamped to at most this at a reset
+    # Not in the original (0 = no cap, its behaviour): at most this many Gaussians after a
+    # densification; when the candidates would exceed it, those with the largest gradients win.
+    # Bounds the per-step cost of a CPU run with a fixed time budget (cf. gsplat MCMC's cap_max).
+    max_gaussians: int = 0
 
     def scaled(self, scale: float) -> "DensifyConfig":
         """The same schedule for a run ``scale`` times as long as the original.
@@ -94,6 +98,10 @@ class TrainConfig:
             raise InputError(f"iterations must be >= 1, got {self.iterations}", "--iterations")
         if not self.schedule_scale > 0:
             raise InputError(f"schedule scale must be > 0, got {self.schedule_scale}", "--schedule-scale")
+        if not self.densify.grad_threshold > 0:
+            raise InputError(f"densification gradient threshold must be > 0, got {self.densify.grad_threshold}", "--densify-grad-threshold")
+        if self.densify.max_gaussians < 0:
+            raise InputError(f"max Gaussians must be >= 0 (0: no cap), got {self.densify.max_gaussians}", "--max-gaussians")
         if not 0 <= self.sh_degree <= 3:
             raise InputError(f"SH degree must be in 0..3, got {self.sh_degree}", "--sh-degree")
         if self.backend not in ("auto", "torch", "numba", "gsplat"):

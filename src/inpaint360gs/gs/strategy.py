@@ -111,6 +111,8 @@ class DensifyStrategy:
         high = grads >= cfg.grad_threshold
         max_scale = params["log_scales"].detach().exp().max(dim=-1).values
         small = max_scale <= cfg.percent_dense * self.extent
+        if cfg.max_gaussians > 0:
+            high = self._within_cap(high, small, grads, n)
         clone = high & small
         split = high & ~small
 
@@ -144,6 +146,21 @@ class DensifyStrategy:
         for key in state:
             state[key] = torch.zeros(m, dtype=state[key].dtype)
         return DensifyStats(cloned=int(clone.sum()), split=int(split.sum()), pruned=int(remove.sum()) - int(split.sum()))
+
+    def _within_cap(self, high: torch.Tensor, small: torch.Tensor, grads: torch.Tensor, n: int) -> torch.Tensor:
+        """Keep the largest-gradient candidates whose growth (clone +1, split +children-1) fits the cap."""
+        room = self.cfg.max_gaussians - n
+        if room <= 0:
+            return torch.zeros_like(high)
+        idx = torch.nonzero(high).flatten()
+        growth = torch.where(small[idx], 1, self.cfg.split_children - 1)
+        if int(growth.sum()) <= room:
+            return high
+        order = torch.argsort(grads[idx], descending=True, stable=True)
+        fits = torch.cumsum(growth[order], 0) <= room
+        out = torch.zeros_like(high)
+        out[idx[order[fits]]] = True
+        return out
 
     def reset_opacity(self, params: Params, optimizers: Optimizers) -> None:
         """Clamp opacities to at most ``opacity_reset_value`` and zero their Adam moments."""

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from inpaint360gs.gs.config import ORIGINAL_ITERATIONS, TrainConfig
+from inpaint360gs.gs.config import ORIGINAL_ITERATIONS, DensifyConfig, TrainConfig
 
 
 def _schedule_scale(text: str) -> float | str:
@@ -45,6 +45,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="multiply the step-based schedule (densification window, opacity-reset period, SH steps, "
         f"position-lr decay) by this; 'auto' = iterations / {ORIGINAL_ITERATIONS} (default 1: the original schedule)",
     )  # fmt: skip
+    parser.add_argument(
+        "--densify-grad-threshold", type=float, default=d.densify.grad_threshold,
+        help=f"densify Gaussians whose mean NDC position gradient exceeds this (default {d.densify.grad_threshold:g}, the original)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--max-gaussians", type=int, default=d.densify.max_gaussians,
+        help="cap on the Gaussian count during densification, largest gradients first (default 0: no cap, the original)",
+    )  # fmt: skip
     parser.add_argument("--resize", type=int, default=1, help="image downscale factor (uses images_<R>/ when present)")
     parser.add_argument("--llffhold", type=int, default=8, help="every N-th non-test view is held out for evaluation (default 8)")
     parser.add_argument("--backend", default=d.backend, choices=["auto", "torch", "numba", "gsplat"], help="rasterizer backend")
@@ -56,6 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--checkpoint-every", type=int, default=d.checkpoint_every, help="steps between checkpoints")
     parser.add_argument("--log-every", type=int, default=d.log_every, help="steps between train_log.csv rows")
     parser.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.pt (same settings)")
+    parser.add_argument("--overwrite", action="store_true", help="replace a previous run in OUT instead of refusing")
     parser.add_argument("--allow-unregistered", action="store_true", help="warn about, instead of rejecting, images not in sparse/0")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_threads_argument(parser)
@@ -76,6 +85,7 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
         checkpoint_every=args.checkpoint_every,
         eval_every=args.eval_every,
         log_every=max(1, args.log_every),
+        densify=DensifyConfig(grad_threshold=args.densify_grad_threshold, max_gaussians=args.max_gaussians),
     )
 
 
@@ -87,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
     cfg.validate()
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, unregistered="warn" if args.allow_unregistered else "error")
-    res = train(scene, cfg, args.out, resume=args.resume, progress=not args.no_progress)
+    res = train(scene, cfg, args.out, resume=args.resume, overwrite=args.overwrite, progress=not args.no_progress)
     m = res.metrics
     held = f"held-out PSNR {m['psnr']:.2f} dB, SSIM {m['ssim']:.4f} on {m['num_holdout_views']} views" if m["psnr"] is not None else "no held-out views"
     print(f"{scene.name}: {m['num_gaussians']} Gaussians after {m['iterations']} steps in {m['train_seconds']:.0f} s; {held}; peak RSS {m['peak_rss_mb']:.0f} MiB")

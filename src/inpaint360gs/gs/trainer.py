@@ -240,7 +240,7 @@ class Trainer:
         g = as_gaussians(self.params).map(lambda t: t.detach())
         return evaluate_views(g, self.scene, self.scene.holdout_views, sh_degree=self.cfg.sh_degree, background=self.background, backend=self.cfg.backend)
 
-    def run(self, *, resume: bool = False) -> TrainResult:
+    def run(self, *, resume: bool = False, overwrite: bool = False) -> TrainResult:
         from tqdm import tqdm
 
         from inpaint360gs.render.api import render
@@ -249,10 +249,13 @@ class Trainer:
         ckpt = self.out / CHECKPOINT_NAME
         self.t0 = time.perf_counter()
         self._fresh_state()
+        if overwrite and not resume:  # a fresh run replaces the previous one's files
+            for name in (CHECKPOINT_NAME, "point_cloud.ply", "metrics.json", "train_log.csv"):
+                (self.out / name).unlink(missing_ok=True)
         if resume and ckpt.is_file():
             self._restore(load_checkpoint(ckpt))
         elif not resume and (ckpt.is_file() or (self.out / "point_cloud.ply").is_file()):
-            raise InputError("output folder holds a previous run; pass --resume to continue it or choose a new folder", self.out)
+            raise InputError("output folder holds a previous run; pass --resume to continue it, --overwrite to replace it, or choose a new folder", self.out)
         cfg = self.cfg
         write_text(
             self.out / "config.yaml",
@@ -320,12 +323,14 @@ def train(
     out_dir: str | Path,
     *,
     resume: bool = False,
+    overwrite: bool = False,
     progress: bool = False,
     on_step: Callable[[int, Params], None] | None = None,
 ) -> TrainResult:
     """Train 3DGS on ``scene``'s training views and write the run's outputs to ``out_dir``.
 
-    ``resume`` continues from ``out_dir/checkpoint.pt`` when it exists (same settings required).
+    ``resume`` continues from ``out_dir/checkpoint.pt`` when it exists (same settings required);
+    ``overwrite`` starts afresh over a previous run's files instead of refusing.
     ``on_step(step, params)`` is called after every optimiser step (inspection and tests).
     """
-    return Trainer(scene, cfg, out_dir, progress=progress, on_step=on_step).run(resume=resume)
+    return Trainer(scene, cfg, out_dir, progress=progress, on_step=on_step).run(resume=resume, overwrite=overwrite)
