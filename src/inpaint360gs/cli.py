@@ -15,6 +15,7 @@ import sys
 STAGES: dict[str, tuple[str, str]] = {
     "train": ("inpaint360gs.gs.train_cli", "train 3D Gaussian Splatting on a scene folder"),
     "render": ("inpaint360gs.render.render_cli", "render a trained model at a scene's cameras"),
+    "table": ("inpaint360gs.report.table_cli", "collect per-scene metrics.json files into CSV/Markdown tables"),
 }
 
 

@@ -1,0 +1,32 @@
+# The two commands of the README: `make benchmark` (main job) and `make test` (tests).
+# Both create the virtual environment on first use (DESIGN.md §5: CPU torch pinned first, so nothing
+# pulls a CUDA build), then run inside it.
+
+PYTHON ?= python3
+VENV ?= .venv
+CORES ?= 2
+# CPU build of torch; on this project's machines it installs from local disk. GPU users: see README.
+TORCH_SPEC ?= torch==2.13.0
+SNAKEMAKE_ARGS ?=
+
+STAMP := $(VENV)/.installed
+
+.PHONY: benchmark test env clean-env
+
+env: $(STAMP)
+
+$(STAMP): pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(VENV)/bin/python -m pip install --quiet "$(TORCH_SPEC)"
+	$(VENV)/bin/python -m pip install --quiet -e ".[test]"
+	touch $@
+
+benchmark: $(STAMP)
+	$(VENV)/bin/snakemake --cores $(CORES) --profile workflow/profiles/local $(SNAKEMAKE_ARGS)
+
+test: $(STAMP)
+	$(VENV)/bin/python -m pytest -q
+
+clean-env:
+	rm -rf $(VENV)

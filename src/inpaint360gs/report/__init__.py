@@ -1,0 +1,1 @@
+"""Aggregated tables of the benchmark (per scene and average), written with provenance."""
