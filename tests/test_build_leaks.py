@@ -28,9 +28,9 @@ def _rec(tracks: list[list[tuple[int, int]]], kps_per_image: int = 6) -> pycolma
 TRACKS = [
     [(1, 0), (2, 0)],  # 1: training only -> kept
     [(4, 0), (5, 0)],  # 2: test only -> leaked
-    [(1, 1), (4, 1)],  # 3: training + test -> kept
+    [(1, 1), (4, 1)],  # 3: training + test, one training view: as 5
     [(5, 2), (4, 2)],  # 4: test only -> leaked
-    [(3, 3), (4, 3), (5, 3)],  # 5: one training observation suffices -> kept
+    [(3, 3), (4, 3), (5, 3)],  # 5: one training observation: kept with min 1, removed with min 2 (default)
     [(4, 4), (5, 4)],  # 6: test only -> leaked
 ]
 
@@ -38,8 +38,9 @@ TRACKS = [
 def test_leaked_points_are_exactly_the_test_only_tracks():
     rec = _rec(TRACKS)
     assert sorted(leaked_point_ids(rec)) == [2, 4, 6]
-    rep = remove_leaked_points(rec)
+    rep = remove_leaked_points(rec, min_inclusive_views=1)
     assert (rep.points_before, rep.removed, rep.points_after) == (6, 3, 3)
+    assert (rep.removed_unseen, rep.removed_single_view) == (3, 0)
     assert sorted(rec.points3D) == [1, 3, 5]
     assert rep.removed_by_test_views == {"test_x.png": 3, "test_y.png": 3}
     # references in the images are cleared: test_x keeps only the observations of points 3 and 5
@@ -47,12 +48,22 @@ def test_leaked_points_are_exactly_the_test_only_tracks():
     assert [k for k, p in enumerate(tx.points2D) if p.has_point3D()] == [1, 3]
     assert tx.num_points3D == 2 and rec.image(5).num_points3D == 1
     assert leaked_point_ids(rec) == []
-    assert remove_leaked_points(rec).removed == 0  # idempotent
+    assert remove_leaked_points(rec, min_inclusive_views=1).removed == 0  # idempotent
+
+
+def test_default_also_removes_points_one_training_view_cannot_triangulate():
+    rec = _rec(TRACKS)
+    assert sorted(leaked_point_ids(rec, min_inclusive_views=2)) == [2, 3, 4, 5, 6]
+    rep = remove_leaked_points(rec)  # default: at least 2 object-inclusive views
+    assert (rep.removed, rep.removed_unseen, rep.removed_single_view, rep.points_after) == (5, 3, 2, 1)
+    assert sorted(rec.points3D) == [1]
+    assert rep.to_dict()["min_inclusive_views"] == 2
+    assert rec.image(1).num_points3D == 1 and rec.image(3).num_points3D == 0
 
 
 def test_leak_removal_survives_a_write_read_round_trip(tmp_path):
     rec = _rec(TRACKS)
-    remove_leaked_points(rec)
+    remove_leaked_points(rec, min_inclusive_views=1)
     rec.write(tmp_path)
     back = pycolmap.Reconstruction(tmp_path)
     assert sorted(back.points3D) == [1, 3, 5] and leaked_point_ids(back) == []
@@ -67,7 +78,7 @@ def test_custom_inclusive_rule():
 
 def test_points_inside_unseen_masks_use_observations_and_pixel_centres():
     rec = _rec(TRACKS)
-    remove_leaked_points(rec)  # points 1, 3, 5 remain; test_x observes 3 (kp 1) and 5 (kp 3)
+    remove_leaked_points(rec, min_inclusive_views=1)  # points 1, 3, 5 remain; test_x observes 3 (kp 1) and 5 (kp 3)
     # keypoint 1 is at (7.5, 7.5) -> pixel (row 7, col 7); keypoint 3 at (17.5, 15.5) -> (15, 17)
     mask = np.zeros((30, 40), bool)
     mask[7, 7] = True
@@ -91,5 +102,5 @@ def test_handmade_scene_leaks_are_the_floor_under_the_box():
     assert np.all((np.abs(X[:, 0]) <= 0.5 + 1e-9) & (np.abs(X[:, 1]) <= 0.5 + 1e-9))
     under = [pid for pid, p in rec.points3D.items() if np.all(np.abs(p.xyz[:2]) < 0.5 - 1e-6)]
     assert set(under) <= set(leaked) and len(under) == 81  # 9 x 9 grid points strictly inside
-    rep = remove_leaked_points(rec)
+    rep = remove_leaked_points(rec, min_inclusive_views=1)
     assert rep.removed == len(leaked) and rep.points_after == rep.points_before - len(leaked)

@@ -17,7 +17,7 @@ import pytest
 
 from dataset_tools.build.colmap import read_model
 from dataset_tools.build.pipeline import BuildConfig, build_dataset
-from dataset_tools.build.synth_export import export_raw_captures, leak_check, score_build, to_truth_frame
+from dataset_tools.build.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
 from dataset_tools.build.unseen import UnseenConfig, derive_unseen_masks, load_object_masks, mask_iou
 from dataset_tools.build.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
@@ -88,11 +88,15 @@ def test_no_point_without_an_object_inclusive_observation_and_validate_passes(bu
 def test_geometric_leak_check_against_the_generator(built):
     truth, _, out, report = built
     rec = read_model(out / "sparse" / "0")
-    kept = leak_check(truth, to_truth_frame(rec, truth))
+    pids = list(rec.points3D)
+    kept = leak_check(truth, to_truth_frame(rec, truth, np.array([rec.point3D(p).xyz for p in pids])))
     # Points the rule removed are the ones that can sit on the unseen floor; what remains flagged are
     # phantom points SfM triangulates from object-inclusive views at the object's occlusion contour
-    # (inside its base, within a few cm of seen surfaces): a handful at most.
+    # (inside its base, within a few cm of seen surfaces): a handful at most, and no object-free view
+    # took part in locating them (no information from the ground truth).
     assert kept.leaked.sum() <= max(3, 0.005 * len(kept.leaked)), kept.summary()
+    flagged = [pids[i] for i in np.flatnonzero(kept.leaked)]
+    assert not object_free_observations(rec, flagged).any()
     assert report.leaked_xyz.shape == (report.points["leak_removal"]["removed"], 3)
 
 

@@ -34,6 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--test-prefix", default="test_", help="one-folder layout: prefix of object-free photos")
     p.add_argument("--unseen-masks", type=Path, default=None,
                    help="folder of unseen masks (one per object-free photo, same stem, 255 = unseen); copied to unseen_mask/")
+    p.add_argument("--min-train-views", type=int, default=2,
+                   help="keep a sparse point only when at least this many object-inclusive photos observe it "
+                        "(default 2: one ray does not fix a depth; 1: drop only points no such photo sees)")
     p.add_argument("--remove-unseen-points", action="store_true",
                    help="also delete sparse points that an object-free view observes inside its unseen mask")
     p.add_argument("--skip-unreadable", action="store_true", help="skip corrupt photos (reported) instead of failing")
@@ -71,6 +74,7 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
         downscale=tuple(args.downscale),
         unseen_masks=args.unseen_masks,
         remove_unseen_points=args.remove_unseen_points,
+        min_train_views=args.min_train_views,
         require_all_registered=args.require_all_registered,
         overwrite=args.overwrite,
         scene_name=args.name,

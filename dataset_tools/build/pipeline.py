@@ -42,6 +42,7 @@ class BuildConfig:
     downscale: tuple[int, ...] = ()  # e.g. (2, 4, 8): writes images_2/, images_4/, images_8/
     unseen_masks: Path | None = None  # folder of unseen masks for the object-free views (optional)
     remove_unseen_points: bool = False  # also delete points observed inside those masks
+    min_train_views: int = 2  # keep a point only when this many object-inclusive photos observe it (leaks.py)
     require_all_registered: bool = False  # unregistered photos: reported skip (default) or an error
     overwrite: bool = False
     scene_name: str | None = None  # default: OUT's folder name
@@ -79,7 +80,8 @@ class BuildReport:
         leak = p["leak_removal"]
         lines.append(
             f"  points: {p['sfm']} from SfM, {p['after_undistortion']} after undistortion, "
-            f"{leak['removed']} leaked removed ({leak['reason']}), "
+            f"{leak['removed']} leaked removed ({leak['removed_unseen']} seen by no object-inclusive photo, "
+            f"{leak['removed_single_view']} by fewer than {leak['min_inclusive_views']}), "
             f"{p['unseen_mask_removed']} removed inside unseen masks -> {p['final']}"
         )
         lines.append(
@@ -119,6 +121,8 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
     Nothing is written under ``out`` unless the whole build succeeds.
     """
     cfg = config or BuildConfig()
+    if cfg.min_train_views < 1:
+        raise InputError(f"must be >= 1, got {cfg.min_train_views}", "--min-train-views")
     t_start = time.perf_counter()
     out = Path(out)
     cset = collect_captures(captures, cfg.captures)
@@ -182,7 +186,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
             image_src = staged
         n_undist = rec.num_points3D()
 
-        leak = remove_leaked_points(rec)
+        leak = remove_leaked_points(rec, min_inclusive_views=cfg.min_train_views)
         masked_removed = 0
         if masks is not None:
             masks = {n: m for n, m in masks.items() if n in registered}

@@ -149,6 +149,14 @@ def leak_check(truth: str | Path, points: np.ndarray, tolerance: float | None = 
     return LeakCheck(tolerance=tol, noise_median=noise, leaked=leaked, off_surface=far & ~near_unseen)
 
 
+def object_free_observations(rec, point_ids) -> np.ndarray:
+    """Per point id: how many distinct object-free (``test_*``) images observe it."""
+    from dataset_tools.build.captures import is_test_name
+
+    return np.array([len({el.image_id for el in rec.point3D(pid).track.elements if is_test_name(rec.image(el.image_id).name)})
+                     for pid in point_ids], int)
+
+
 def to_truth_frame(rec, truth: str | Path, points: np.ndarray | None = None) -> np.ndarray:
     """``points`` (default: all of ``rec``'s) mapped by the Sim(3) that aligns ``rec``'s cameras to the true ones."""
     M = similarity_to_true(reconstruction_poses(rec), true_poses(truth))
