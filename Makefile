@@ -22,8 +22,9 @@ $(STAMP): pyproject.toml
 	$(VENV)/bin/python -m pip install --quiet -e ".[test]"
 	touch $@
 
+# The rules call the package's CLIs (inpaint360gs, inpaint360gs-dataset): put the venv on PATH.
 benchmark: $(STAMP)
-	$(VENV)/bin/snakemake --cores $(CORES) --profile workflow/profiles/local $(SNAKEMAKE_ARGS)
+	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/snakemake --cores $(CORES) --profile workflow/profiles/local $(SNAKEMAKE_ARGS)
 
 test: $(STAMP)
 	$(VENV)/bin/python -m pytest -q
