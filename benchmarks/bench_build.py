@@ -87,13 +87,15 @@ def main() -> None:
     from dataset_tools.synth import SCENES
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", nargs="*", default=sorted(SCENES))
+    ap.add_argument("--scenes", nargs="*", default=["all"], help="scene names or 'all' (default)")
     ap.add_argument("--matcher", default="auto", choices=["auto", "exhaustive", "sequential"])
     ap.add_argument("--camera-model", default="SIMPLE_RADIAL")
     ap.add_argument("--work", type=Path, default=Path("/tmp/inpaint360gs_bench_build"))
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--clean", action="store_true", help="delete cached scenes first")
     args = ap.parse_args()
+    if "all" in args.scenes:
+        args.scenes = sorted(SCENES)
     cv2.setNumThreads(2)  # COLMAP runs with 2 threads (SfMConfig.num_threads); this machine has 2 cores
     if args.clean and args.work.exists():
         shutil.rmtree(args.work)
