@@ -46,11 +46,11 @@ def main() -> int:
     for name in names:
         scene = data / name
         if not (scene / "scene.json").exists():
-            cmd = ["inpaint360gs-dataset", "synth", str(data), "--scenes", name, "--quiet", "--overwrite"]
+            cmd = [sys.executable, "-m", "dataset_tools.cli", "synth", str(data), "--scenes", name, "--quiet", "--overwrite"]
             subprocess.run(cmd + (["--reduced"] if args.reduced else []), check=True)
         out = args.work / f"runs_{size}" / name
         cmd = [
-            "inpaint360gs", "train", str(scene), str(out), "--iterations", str(iters), "--schedule-scale", "auto",
+            sys.executable, "-m", "inpaint360gs.cli", "train", str(scene), str(out), "--iterations", str(iters), "--schedule-scale", "auto",
             "--max-gaussians", str(MAX_GAUSSIANS), "--threads", str(args.threads), "--no-progress", "--seed", "0", *args.extra.split(),
         ]  # fmt: skip
         t0 = time.perf_counter()
