@@ -172,3 +172,12 @@ def test_unseen_masks_for_build_are_checked_before_sfm(tmp_path, capsys):
     line = _cli_fails(["build", str(root), str(out), "--unseen-masks", str(masks), "--no-progress"], capsys)
     assert "test_IMG_101.png" in line and "32x12" in line
     assert not out.exists()
+
+
+@pytest.mark.parametrize("flag,value", [("--min-train-views", "0"), ("--min-train-angle", "-1"), ("--min-train-angle", "90")])
+def test_leak_rule_settings_are_checked_before_sfm(tmp_path, capsys, flag, value):
+    root = _two_folders(tmp_path / "cap")
+    out = tmp_path / "out"
+    line = _cli_fails(["build", str(root), str(out), flag, value, "--no-progress"], capsys)
+    assert flag in line and value in line
+    assert not out.exists()

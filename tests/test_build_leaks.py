@@ -6,7 +6,7 @@ import numpy as np
 import pycolmap
 
 from dataset_tools.build import handmade as hm
-from dataset_tools.build.leaks import leaked_point_ids, remove_leaked_points, remove_points_in_masks
+from dataset_tools.build.leaks import leaked_point_ids, object_free_influence, remove_leaked_points, remove_points_in_masks
 
 NAMES = ["IMG_a.png", "IMG_b.png", "IMG_c.png", "test_x.png", "test_y.png"]  # ids 1..5; 4, 5 object-free
 
@@ -38,7 +38,7 @@ TRACKS = [
 def test_leaked_points_are_exactly_the_test_only_tracks():
     rec = _rec(TRACKS)
     assert sorted(leaked_point_ids(rec)) == [2, 4, 6]
-    rep = remove_leaked_points(rec, min_inclusive_views=1)
+    rep = remove_leaked_points(rec, min_inclusive_views=1, min_inclusive_angle_deg=0)
     assert (rep.points_before, rep.removed, rep.points_after) == (6, 3, 3)
     assert (rep.removed_unseen, rep.removed_single_view) == (3, 0)
     assert sorted(rec.points3D) == [1, 3, 5]
@@ -48,22 +48,41 @@ def test_leaked_points_are_exactly_the_test_only_tracks():
     assert [k for k, p in enumerate(tx.points2D) if p.has_point3D()] == [1, 3]
     assert tx.num_points3D == 2 and rec.image(5).num_points3D == 1
     assert leaked_point_ids(rec) == []
-    assert remove_leaked_points(rec, min_inclusive_views=1).removed == 0  # idempotent
+    assert remove_leaked_points(rec, min_inclusive_views=1, min_inclusive_angle_deg=0).removed == 0  # idempotent
 
 
 def test_default_also_removes_points_one_training_view_cannot_triangulate():
     rec = _rec(TRACKS)
     assert sorted(leaked_point_ids(rec, min_inclusive_views=2)) == [2, 3, 4, 5, 6]
-    rep = remove_leaked_points(rec)  # default: at least 2 object-inclusive views
+    rep = remove_leaked_points(rec, min_inclusive_angle_deg=0)  # default: at least 2 object-inclusive views
     assert (rep.removed, rep.removed_unseen, rep.removed_single_view, rep.points_after) == (5, 3, 2, 1)
     assert sorted(rec.points3D) == [1]
     assert rep.to_dict()["min_inclusive_views"] == 2
     assert rec.image(1).num_points3D == 1 and rec.image(3).num_points3D == 0
 
 
+def test_default_also_removes_points_whose_training_rays_are_nearly_parallel():
+    """Camera centres at (-0.1 i, 0, 0); point k at (0, 0, 5 + k). Point 1 (images 1, 2 at depth 5):
+    rays 1.146° apart; point 2 (images 1, 3 + a test view, depth 6): atan(0.3/6) - atan(0.1/6) = 1.907°."""
+    from dataset_tools.build.leaks import inclusive_triangulation_angles
+
+    tracks = [[(1, 0), (2, 0)], [(1, 1), (3, 1), (4, 1)]]
+    ang = inclusive_triangulation_angles(_rec(tracks))
+    assert abs(ang[1] - np.degrees(np.arctan(0.2 / 5) - np.arctan(0.1 / 5))) < 1e-9
+    assert abs(ang[2] - np.degrees(np.arctan(0.3 / 6) - np.arctan(0.1 / 6))) < 1e-9
+    rec = _rec(tracks)
+    rep = remove_leaked_points(rec)  # default 1.5°
+    assert (rep.removed, rep.removed_small_angle, rep.removed_single_view, rep.removed_unseen) == (1, 1, 0, 0)
+    assert sorted(rec.points3D) == [2] and rep.to_dict()["min_inclusive_angle_deg"] == 1.5
+    rec = _rec(tracks)
+    assert remove_leaked_points(rec, min_inclusive_angle_deg=2.0).removed_small_angle == 2 and rec.num_points3D() == 0
+    rec = _rec(tracks)
+    assert remove_leaked_points(rec, min_inclusive_angle_deg=0).removed == 0
+
+
 def test_leak_removal_survives_a_write_read_round_trip(tmp_path):
     rec = _rec(TRACKS)
-    remove_leaked_points(rec, min_inclusive_views=1)
+    remove_leaked_points(rec, min_inclusive_views=1, min_inclusive_angle_deg=0)
     rec.write(tmp_path)
     back = pycolmap.Reconstruction(tmp_path)
     assert sorted(back.points3D) == [1, 3, 5] and leaked_point_ids(back) == []
@@ -78,7 +97,7 @@ def test_custom_inclusive_rule():
 
 def test_points_inside_unseen_masks_use_observations_and_pixel_centres():
     rec = _rec(TRACKS)
-    remove_leaked_points(rec, min_inclusive_views=1)  # points 1, 3, 5 remain; test_x observes 3 (kp 1) and 5 (kp 3)
+    remove_leaked_points(rec, min_inclusive_views=1, min_inclusive_angle_deg=0)  # points 1, 3, 5 remain; test_x observes 3 (kp 1) and 5 (kp 3)
     # keypoint 1 is at (7.5, 7.5) -> pixel (row 7, col 7); keypoint 3 at (17.5, 15.5) -> (15, 17)
     mask = np.zeros((30, 40), bool)
     mask[7, 7] = True
@@ -102,5 +121,30 @@ def test_handmade_scene_leaks_are_the_floor_under_the_box():
     assert np.all((np.abs(X[:, 0]) <= 0.5 + 1e-9) & (np.abs(X[:, 1]) <= 0.5 + 1e-9))
     under = [pid for pid, p in rec.points3D.items() if np.all(np.abs(p.xyz[:2]) < 0.5 - 1e-6)]
     assert set(under) <= set(leaked) and len(under) == 81  # 9 x 9 grid points strictly inside
-    rep = remove_leaked_points(rec, min_inclusive_views=1)
+    rep = remove_leaked_points(rec, min_inclusive_views=1, min_inclusive_angle_deg=0)
     assert rep.removed == len(leaked) and rep.points_after == rep.points_before - len(leaked)
+
+
+def test_object_free_influence_closed_form():
+    """Cameras on the x axis looking down +z (t = (0.1 i, 0, 0)); a point seen exactly by every view
+    is not moved by the object-free ones; shifting the object-free observations moves it, and a point
+    with one object-inclusive observation cannot be triangulated without them."""
+    X = np.array([0.3, -0.2, 6.0])
+    cam_x = [-0.1 * iid for iid in range(1, 6)]  # camera centres: C = -t
+    kp = np.array([[50 * (X[0] - cx) / X[2] + 20, 50 * X[1] / X[2] + 15] for cx in cam_x])  # exact projections
+    rec = pycolmap.Reconstruction()
+    rec.add_camera_with_trivial_rig(pycolmap.Camera(model="PINHOLE", width=40, height=30, params=[50, 50, 20, 15], camera_id=1))
+    for iid, name in enumerate(NAMES, start=1):
+        pts = np.stack([kp[iid - 1]] * 4 + [kp[iid - 1] + [3.0, 0.0]])  # keypoints 0-3 exact, 4 shifted by 3 px
+        rec.add_image_with_trivial_frame(pycolmap.Image(name=name, keypoints=pts, camera_id=1, image_id=iid),
+                                         pycolmap.Rigid3d(pycolmap.Rotation3d(), np.array([0.1 * iid, 0, 0])))
+    exact = rec.add_point3D(X, pycolmap.Track([pycolmap.TrackElement(i, 0) for i in range(1, 6)]))
+    moved = rec.add_point3D(X, pycolmap.Track([pycolmap.TrackElement(i, 1) for i in (1, 2, 3)]
+                                              + [pycolmap.TrackElement(i, 4) for i in (4, 5)]))
+    train_only = rec.add_point3D(X, pycolmap.Track([pycolmap.TrackElement(i, 2) for i in (1, 2, 3)]))
+    single = rec.add_point3D(X, pycolmap.Track([pycolmap.TrackElement(i, 3) for i in (1, 4, 5)]))
+    shift = object_free_influence(rec, [exact, moved, train_only, single])
+    assert shift[0] < 1e-9 and shift[2] == 0.0 and np.isnan(shift[3])
+    # object-free rays shifted by 3 px: the joint triangulation moves towards them by a sizeable
+    # fraction of the depth error those rays alone imply (baseline 0.1-0.5, depth 6)
+    assert 0.05 < shift[1] < 6.0

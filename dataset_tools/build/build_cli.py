@@ -37,6 +37,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--min-train-views", type=int, default=2,
                    help="keep a sparse point only when at least this many object-inclusive photos observe it "
                         "(default 2: one ray does not fix a depth; 1: drop only points no such photo sees)")
+    p.add_argument("--min-train-angle", type=float, default=1.5, metavar="DEG",
+                   help="... and when their rays span at least DEG degrees (default 1.5, COLMAP's minimum "
+                        "triangulation angle: nearly parallel rays do not fix a depth either; 0 turns this off)")
     p.add_argument("--remove-unseen-points", action="store_true",
                    help="also delete sparse points that an object-free view observes inside its unseen mask")
     p.add_argument("--skip-unreadable", action="store_true", help="skip corrupt photos (reported) instead of failing")
@@ -75,6 +78,7 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
         unseen_masks=args.unseen_masks,
         remove_unseen_points=args.remove_unseen_points,
         min_train_views=args.min_train_views,
+        min_train_angle=args.min_train_angle,
         require_all_registered=args.require_all_registered,
         overwrite=args.overwrite,
         scene_name=args.name,

@@ -5,7 +5,10 @@ point that only object-free views observe (typically the floor under a removed o
 method what the hidden region looks like, so it must go (paper Sec. 4 "test-view point clouds are
 excluded from training" and supp. Sec. A; DESIGN.md §3). By default a point also goes when only ONE
 object-inclusive image observes it: one ray does not fix a depth, so its position came from the
-object-free views (measured on the synthetic benchmark: 34-132 such points per scene).
+object-free views (measured on the synthetic benchmark: 34-132 such points per scene); and when the
+object-inclusive rays meet at less than ``min_inclusive_angle_deg`` (1.5°, the minimum triangulation
+angle of COLMAP's mapper): nearly parallel rays do not fix it either, so a training-only
+reconstruction would not have that point (20-30 per synthetic scene, all also seen by object-free views).
 """
 
 from __future__ import annotations
@@ -35,12 +38,16 @@ class LeakRemoval:
     removed_by_test_views: dict[str, int]  # object-free image -> removed points it observed
     removed_unseen: int = 0  # no observation in any object-inclusive image
     removed_single_view: int = 0  # observed by fewer than ``min_inclusive_views`` (but >= 1) object-inclusive images
+    removed_small_angle: int = 0  # enough object-inclusive images, but their rays meet at < ``min_inclusive_angle_deg``
     min_inclusive_views: int = 1
-    reason: str = "track observed by fewer than min_inclusive_views object-inclusive images (its position comes from object-free test_ views)"
+    min_inclusive_angle_deg: float = 0.0
+    reason: str = ("object-inclusive observations alone do not triangulate the point (fewer than min_inclusive_views "
+                   "of them, or rays within min_inclusive_angle_deg): its position comes from object-free test_ views")
     removed_xyz: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)), repr=False)  # in memory only
 
     def to_dict(self) -> dict:
-        keys = ("points_before", "removed", "removed_unseen", "removed_single_view", "min_inclusive_views", "points_after", "removed_by_test_views", "reason")
+        keys = ("points_before", "removed", "removed_unseen", "removed_single_view", "removed_small_angle", "min_inclusive_views",
+                "min_inclusive_angle_deg", "points_after", "removed_by_test_views", "reason")
         return {k: getattr(self, k) for k in keys}
 
 
@@ -48,6 +55,22 @@ def inclusive_view_counts(rec: pycolmap.Reconstruction, is_inclusive: Callable[[
     """Point id -> number of distinct object-inclusive images in its track."""
     inclusive = {iid for iid, im in rec.images.items() if is_inclusive(im.name)}
     return {pid: len({el.image_id for el in pt.track.elements} & inclusive) for pid, pt in rec.points3D.items()}
+
+
+def inclusive_triangulation_angles(rec: pycolmap.Reconstruction, is_inclusive: Callable[[str], bool] = default_is_inclusive) -> dict[int, float]:
+    """Point id -> largest angle (degrees) between the rays from its object-inclusive observers'
+    camera centres to it (0 with fewer than two such observers)."""
+    centres = {iid: im.projection_center() for iid, im in rec.images.items() if is_inclusive(im.name)}
+    out = {}
+    for pid, pt in rec.points3D.items():
+        ids = sorted({el.image_id for el in pt.track.elements} & centres.keys())
+        if len(ids) < 2:
+            out[pid] = 0.0
+            continue
+        rays = pt.xyz - np.array([centres[i] for i in ids])
+        rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+        out[pid] = float(np.degrees(np.arccos(np.clip((rays @ rays.T).min(), -1.0, 1.0))))
+    return out
 
 
 def leaked_point_ids(
@@ -59,14 +82,24 @@ def leaked_point_ids(
 
 
 def remove_leaked_points(
-    rec: pycolmap.Reconstruction, is_inclusive: Callable[[str], bool] = default_is_inclusive, min_inclusive_views: int = 2
+    rec: pycolmap.Reconstruction,
+    is_inclusive: Callable[[str], bool] = default_is_inclusive,
+    min_inclusive_views: int = 2,
+    min_inclusive_angle_deg: float = 1.5,
 ) -> LeakRemoval:
-    """Delete (in place) every point fewer than ``min_inclusive_views`` object-inclusive images observe; report the counts."""
+    """Delete (in place) every point that its object-inclusive observations alone do not triangulate:
+    fewer than ``min_inclusive_views`` of them, or their rays all within ``min_inclusive_angle_deg``
+    of each other. Reports the counts per reason."""
     if min_inclusive_views < 1:
         raise ValueError(f"min_inclusive_views must be >= 1, got {min_inclusive_views}")
+    if not 0.0 <= min_inclusive_angle_deg < 90.0:
+        raise ValueError(f"min_inclusive_angle_deg must be in [0, 90), got {min_inclusive_angle_deg}")
     before = rec.num_points3D()
     counts = inclusive_view_counts(rec, is_inclusive)
-    leaked = [pid for pid, n in counts.items() if n < min_inclusive_views]
+    angles = inclusive_triangulation_angles(rec, is_inclusive) if min_inclusive_angle_deg > 0 else {}
+    few = {pid for pid, n in counts.items() if n < min_inclusive_views}
+    narrow = {pid for pid, a in angles.items() if pid not in few and counts[pid] >= 2 and a < min_inclusive_angle_deg}
+    leaked = sorted(few | narrow)
     unseen = sum(counts[pid] == 0 for pid in leaked)
     per_view: dict[str, int] = {}
     xyz = np.array([rec.point3D(pid).xyz for pid in leaked], float).reshape(-1, 3)
@@ -81,8 +114,10 @@ def remove_leaked_points(
         points_after=rec.num_points3D(),
         removed_by_test_views=dict(sorted(per_view.items())),
         removed_unseen=unseen,
-        removed_single_view=len(leaked) - unseen,
+        removed_single_view=len(few) - unseen,
+        removed_small_angle=len(narrow),
         min_inclusive_views=min_inclusive_views,
+        min_inclusive_angle_deg=min_inclusive_angle_deg,
         removed_xyz=xyz,
     )
 
@@ -112,3 +147,33 @@ def remove_points_in_masks(rec: pycolmap.Reconstruction, masks: Mapping[str, np.
     for pid in doomed:
         rec.delete_point3D(pid)
     return len(doomed)
+
+
+def object_free_influence(
+    rec: pycolmap.Reconstruction, point_ids: list[int] | None = None, is_inclusive: Callable[[str], bool] = default_is_inclusive
+) -> np.ndarray:
+    """How far the object-free views move each point: distance (model units) between the multi-view
+    triangulation from its object-inclusive observations alone and from all its observations.
+
+    0 for points no object-free view observes. A kept point whose position the object-free views
+    change noticeably carries ground-truth information into training even though training views
+    observe it; after the default removal rule this is at the level of feature noise
+    (``benchmarks/bench_build.py``, column ``shift``). NaN where the object-inclusive observations
+    alone cannot triangulate the point.
+    """
+    ids = list(rec.points3D) if point_ids is None else list(point_ids)
+    out = np.zeros(len(ids))
+    for k, pid in enumerate(ids):
+        mats, rays, inclusive = [], [], []
+        for el in rec.point3D(pid).track.elements:
+            im = rec.image(el.image_id)
+            mats.append(im.cam_from_world().matrix())
+            rays.append(rec.camera(im.camera_id).cam_ray_from_img(im.points2D[el.point2D_idx].xy))
+            inclusive.append(is_inclusive(im.name))
+        if all(inclusive):
+            continue
+        inc = np.flatnonzero(inclusive)
+        x_all = pycolmap.triangulate_multi_view_point(mats, np.array(rays))
+        x_inc = pycolmap.triangulate_multi_view_point([mats[i] for i in inc], np.array(rays)[inc]) if len(inc) >= 2 else None
+        out[k] = np.nan if x_all is None or x_inc is None else float(np.linalg.norm(np.ravel(x_all) - np.ravel(x_inc)))
+    return out

@@ -43,6 +43,7 @@ class BuildConfig:
     unseen_masks: Path | None = None  # folder of unseen masks for the object-free views (optional)
     remove_unseen_points: bool = False  # also delete points observed inside those masks
     min_train_views: int = 2  # keep a point only when this many object-inclusive photos observe it (leaks.py)
+    min_train_angle: float = 1.5  # ... and their rays span at least this many degrees (COLMAP mapper's minimum; leaks.py)
     require_all_registered: bool = False  # unregistered photos: reported skip (default) or an error
     overwrite: bool = False
     scene_name: str | None = None  # default: OUT's folder name
@@ -81,7 +82,8 @@ class BuildReport:
         lines.append(
             f"  points: {p['sfm']} from SfM, {p['after_undistortion']} after undistortion, "
             f"{leak['removed']} leaked removed ({leak['removed_unseen']} seen by no object-inclusive photo, "
-            f"{leak['removed_single_view']} by fewer than {leak['min_inclusive_views']}), "
+            f"{leak['removed_single_view']} by fewer than {leak['min_inclusive_views']}, "
+            f"{leak['removed_small_angle']} by rays within {leak['min_inclusive_angle_deg']}°), "
             f"{p['unseen_mask_removed']} removed inside unseen masks -> {p['final']}"
         )
         lines.append(
@@ -123,6 +125,8 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
     cfg = config or BuildConfig()
     if cfg.min_train_views < 1:
         raise InputError(f"must be >= 1, got {cfg.min_train_views}", "--min-train-views")
+    if not 0.0 <= cfg.min_train_angle < 90.0:
+        raise InputError(f"must be in [0, 90) degrees, got {cfg.min_train_angle}", "--min-train-angle")
     t_start = time.perf_counter()
     out = Path(out)
     cset = collect_captures(captures, cfg.captures)
@@ -186,7 +190,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
             image_src = staged
         n_undist = rec.num_points3D()
 
-        leak = remove_leaked_points(rec, min_inclusive_views=cfg.min_train_views)
+        leak = remove_leaked_points(rec, min_inclusive_views=cfg.min_train_views, min_inclusive_angle_deg=cfg.min_train_angle)
         masked_removed = 0
         if masks is not None:
             masks = {n: m for n, m in masks.items() if n in registered}
