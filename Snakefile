@@ -11,6 +11,29 @@ min_version("8.0")
 configfile: "workflow/config/config.yaml"
 
 
+def _typed(value):
+    """`--config` values arrive as strings below the top level (Snakemake parses nested ones with
+    YAML's BaseLoader) and `true` stays a string even at the top: turn YAML booleans and numbers
+    back into them so `reduced=true` or `train='{iterations: 1000}'` validate like the file."""
+    import yaml
+
+    if isinstance(value, dict):
+        return {k: _typed(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_typed(v) for v in value]
+    if isinstance(value, str) and value.strip():
+        try:
+            parsed = yaml.safe_load(value)
+        except yaml.YAMLError:
+            return value
+        if isinstance(parsed, (bool, int, float)):
+            return parsed
+    return value
+
+
+config.update(_typed(dict(config)))
+
+
 validate(config, "workflow/config/config.schema.yaml")
 
 
