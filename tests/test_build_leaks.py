@@ -148,3 +148,22 @@ def test_object_free_influence_closed_form():
     # object-free rays shifted by 3 px: the joint triangulation moves towards them by a sizeable
     # fraction of the depth error those rays alone imply (baseline 0.1-0.5, depth 6)
     assert 0.05 < shift[1] < 6.0
+
+
+def test_point_colours_come_from_object_inclusive_images_only(tmp_path):
+    import cv2
+
+    from dataset_tools.build.leaks import recolor_from_inclusive_views
+
+    rec = _rec(TRACKS)
+    # IMG_a red, IMG_b blue, IMG_c green; the object-free views white (must not count)
+    fill = {"IMG_a.png": (255, 0, 0), "IMG_b.png": (0, 0, 255), "IMG_c.png": (0, 255, 0), "test_x.png": (255, 255, 255), "test_y.png": (255, 255, 255)}
+    for name, rgb in fill.items():
+        img = np.zeros((30, 40, 3), np.uint8)
+        img[:] = rgb[::-1]  # OpenCV writes BGR
+        cv2.imwrite(str(tmp_path / name), img)
+    assert recolor_from_inclusive_views(rec, tmp_path) > 0
+    assert rec.point3D(1).color.tolist() == [128, 0, 128]  # mean of red (IMG_a) and blue (IMG_b)
+    assert rec.point3D(3).color.tolist() == [255, 0, 0]  # IMG_a + test_x: red only
+    assert rec.point3D(5).color.tolist() == [0, 255, 0]  # IMG_c + two test views: green only
+    assert rec.point3D(2).color.tolist() == [0, 0, 0]  # test-only point: untouched (removal deletes it)

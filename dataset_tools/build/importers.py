@@ -28,7 +28,7 @@ import numpy as np
 from dataset_tools.build.captures import IMAGE_SUFFIXES, TEST_PREFIX, is_test_name, read_image_size
 from dataset_tools.build.colmap import PINHOLE_MODELS, read_model, to_pinhole
 from dataset_tools.build.layout import find_mask, provenance, read_image, write_json, write_mask
-from dataset_tools.build.leaks import remove_leaked_points
+from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points
 from inpaint360gs.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 
@@ -102,6 +102,7 @@ def _write_scene(
         for path, new in sources.values():
             if new in registered:
                 shutil.copy2(path, tmp / "images" / new)
+        recolor_from_inclusive_views(rec, tmp / "images")  # colours from object-inclusive images only
         (tmp / "sparse" / "0").mkdir(parents=True)
         rec.write(tmp / "sparse" / "0")
         n_masks = 0

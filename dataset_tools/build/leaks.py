@@ -177,3 +177,41 @@ def object_free_influence(
         x_inc = pycolmap.triangulate_multi_view_point([mats[i] for i in inc], np.array(rays)[inc]) if len(inc) >= 2 else None
         out[k] = np.nan if x_all is None or x_inc is None else float(np.linalg.norm(np.ravel(x_all) - np.ravel(x_inc)))
     return out
+
+
+def recolor_from_inclusive_views(
+    rec: pycolmap.Reconstruction, image_dir: str | Path, is_inclusive: Callable[[str], bool] = default_is_inclusive
+) -> int:
+    """Set each point's colour (in place) to the mean of its object-inclusive observations' pixels.
+
+    COLMAP averages over the whole track, object-free views included, so a kept point's colour would
+    still carry ground-truth pixels into the 3DGS initialisation. Pixel of a keypoint: (floor(y),
+    floor(x)) (COLMAP puts the top-left pixel's centre at (0.5, 0.5)). Returns how many points
+    changed colour. Every kept point has an object-inclusive observation (``remove_leaked_points``);
+    one without keeps its colour.
+    """
+    import cv2
+
+    from dataset_tools.build.layout import read_image
+
+    sums: dict[int, np.ndarray] = {}
+    counts: dict[int, int] = {}
+    for im in rec.images.values():
+        if not is_inclusive(im.name):
+            continue
+        obs = [(p.point3D_id, p.xy) for p in im.points2D if p.has_point3D()]
+        if not obs:
+            continue
+        img = read_image(Path(image_dir) / im.name, cv2.IMREAD_COLOR)[..., ::-1]  # BGR -> RGB
+        h, w = img.shape[:2]
+        for pid, xy in obs:
+            x, y = min(max(int(np.floor(xy[0])), 0), w - 1), min(max(int(np.floor(xy[1])), 0), h - 1)
+            sums[pid] = sums.get(pid, 0.0) + img[y, x].astype(np.float64)
+            counts[pid] = counts.get(pid, 0) + 1
+    changed = 0
+    for pid, s in sums.items():
+        color = np.clip(np.round(s / counts[pid]), 0, 255).astype(np.uint8)
+        pt = rec.point3D(pid)
+        changed += int(np.any(pt.color != color))
+        pt.color = color
+    return changed

@@ -27,7 +27,7 @@ from dataset_tools.build.layout import (
     write_json,
     write_mask,
 )
-from dataset_tools.build.leaks import remove_leaked_points, remove_points_in_masks
+from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points, remove_points_in_masks
 from dataset_tools.build.progress import StageProgress
 from inpaint360gs.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
@@ -196,6 +196,8 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
             masks = {n: m for n, m in masks.items() if n in registered}
             if cfg.remove_unseen_points:
                 masked_removed = remove_points_in_masks(rec, masks)
+        # point colours from object-inclusive photos only (COLMAP averaged the object-free ones in too)
+        recolored = recolor_from_inclusive_views(rec, image_src)
 
         cam = next(iter(rec.cameras.values()))
         out_names = sorted(registered)
@@ -228,6 +230,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
                 "after_undistortion": n_undist,
                 "leak_removal": leak.to_dict(),
                 "unseen_mask_removed": masked_removed,
+                "recolored_from_object_inclusive": recolored,
                 "final": rec.num_points3D(),
                 "mean_reprojection_error_px": float(rec.compute_mean_reprojection_error()),
             },
