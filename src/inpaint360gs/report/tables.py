@@ -19,10 +19,13 @@ from inpaint360gs.io.atomic import atomic_path, write_text
 
 
 def git_commit() -> str:
-    """Short commit hash of the working tree (with ``-dirty`` when it has changes), or ``unknown``."""
+    """Short commit hash of the working tree (with ``-dirty`` when tracked files outside ``results/``
+    have changes), or ``unknown``. Committed tables under ``results/`` do not count: Snakemake deletes
+    a job's old outputs before it runs, so the table being rewritten would always look modified."""
     try:
         rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)results"],
+                               capture_output=True, text=True)
         return rev.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
