@@ -53,11 +53,8 @@ def run_scene(name: str, work: Path, matcher: str, camera_model: str) -> dict:
     pids = list(rec.points3D)
     kept = leak_check(truth, to_truth_frame(rec, truth, np.array([rec.point3D(p).xyz for p in pids])), score.leaks["tolerance_m"])
     flagged_test_obs = object_free_observations(rec, [pids[i] for i in np.flatnonzero(kept.leaked)])
-    # how far the object-free observations move each kept point, in % of its distance to the nearest
-    # object-inclusive camera (scale-free: far background points have proportionally larger depth noise)
-    centres = np.array([im.projection_center() for im in rec.images.values() if not im.name.startswith("test_")])
-    depth = np.array([np.linalg.norm(centres - rec.point3D(p).xyz, axis=1).min() for p in pids])
-    shift = object_free_influence(rec, pids) / depth * 100
+    # how far the object-free observations move each kept point, in % of its distance to the nearest object-inclusive camera
+    shift = object_free_influence(rec, pids, relative=True) * 100
     tol = score.leaks["tolerance_m"]
     removed = leak_check(truth, to_truth_frame(rec, truth, report.leaked_xyz), tol) if len(report.leaked_xyz) else None
     derived = derive_unseen_masks(out, load_object_masks(out, cap / "object_masks"))

@@ -148,6 +148,9 @@ def test_object_free_influence_closed_form():
     # object-free rays shifted by 3 px: the joint triangulation moves towards them by a sizeable
     # fraction of the depth error those rays alone imply (baseline 0.1-0.5, depth 6)
     assert 0.05 < shift[1] < 6.0
+    # relative: divided by the distance to the nearest object-inclusive camera (IMG_a at x = -0.1)
+    rel = object_free_influence(rec, [moved], relative=True)
+    assert abs(rel[0] - shift[1] / np.linalg.norm(X - [-0.1, 0, 0])) < 1e-12
 
 
 def test_point_colours_come_from_object_inclusive_images_only(tmp_path):

@@ -8,7 +8,8 @@ object-inclusive image observes it: one ray does not fix a depth, so its positio
 object-free views (measured on the synthetic benchmark: 34-132 such points per scene); and when the
 object-inclusive rays meet at less than ``min_inclusive_angle_deg`` (1.5°, the minimum triangulation
 angle of COLMAP's mapper): nearly parallel rays do not fix it either, so a training-only
-reconstruction would not have that point (20-30 per synthetic scene, all also seen by object-free views).
+reconstruction would not have that point (4-64 per synthetic scene; on the two scenes inspected every
+one of them was also observed by object-free views).
 """
 
 from __future__ import annotations
@@ -150,18 +151,22 @@ def remove_points_in_masks(rec: pycolmap.Reconstruction, masks: Mapping[str, np.
 
 
 def object_free_influence(
-    rec: pycolmap.Reconstruction, point_ids: list[int] | None = None, is_inclusive: Callable[[str], bool] = default_is_inclusive
+    rec: pycolmap.Reconstruction,
+    point_ids: list[int] | None = None,
+    is_inclusive: Callable[[str], bool] = default_is_inclusive,
+    relative: bool = False,
 ) -> np.ndarray:
-    """How far the object-free views move each point: distance (model units) between the multi-view
-    triangulation from its object-inclusive observations alone and from all its observations.
+    """How far the object-free views move each point: distance between the multi-view triangulation
+    from its object-inclusive observations alone and from all its observations.
 
-    0 for points no object-free view observes. A kept point whose position the object-free views
-    change noticeably carries ground-truth information into training even though training views
-    observe it; after the default removal rule this is at the level of feature noise
-    (``benchmarks/bench_build.py``, column ``shift``). NaN where the object-inclusive observations
-    alone cannot triangulate the point.
+    Model units, or with ``relative`` a fraction of the point's distance to the nearest
+    object-inclusive camera (scale-free: depth noise grows with distance). 0 for points no object-free
+    view observes; NaN where the object-inclusive observations alone cannot triangulate the point.
+    A kept point the object-free views move far got part of its position from the ground truth
+    (``benchmarks/bench_build.py`` reports the distribution; joint SfM cannot avoid it entirely).
     """
     ids = list(rec.points3D) if point_ids is None else list(point_ids)
+    centres = np.array([im.projection_center() for im in rec.images.values() if is_inclusive(im.name)]).reshape(-1, 3)
     out = np.zeros(len(ids))
     for k, pid in enumerate(ids):
         mats, rays, inclusive = [], [], []
@@ -176,6 +181,8 @@ def object_free_influence(
         x_all = pycolmap.triangulate_multi_view_point(mats, np.array(rays))
         x_inc = pycolmap.triangulate_multi_view_point([mats[i] for i in inc], np.array(rays)[inc]) if len(inc) >= 2 else None
         out[k] = np.nan if x_all is None or x_inc is None else float(np.linalg.norm(np.ravel(x_all) - np.ravel(x_inc)))
+        if relative and np.isfinite(out[k]):
+            out[k] /= np.linalg.norm(centres - rec.point3D(pid).xyz, axis=1).min()
     return out
 
 
@@ -194,24 +201,23 @@ def recolor_from_inclusive_views(
 
     from dataset_tools.build.layout import read_image
 
-    sums: dict[int, np.ndarray] = {}
-    counts: dict[int, int] = {}
+    pids = np.array(sorted(rec.points3D), dtype=np.int64)
+    sums = np.zeros((len(pids), 3))
+    counts = np.zeros(len(pids))
     for im in rec.images.values():
-        if not is_inclusive(im.name):
-            continue
-        obs = [(p.point3D_id, p.xy) for p in im.points2D if p.has_point3D()]
+        obs = [(p.point3D_id, p.xy) for p in im.points2D if p.has_point3D()] if is_inclusive(im.name) else []
         if not obs:
             continue
         img = read_image(Path(image_dir) / im.name, cv2.IMREAD_COLOR)[..., ::-1]  # BGR -> RGB
         h, w = img.shape[:2]
-        for pid, xy in obs:
-            x, y = min(max(int(np.floor(xy[0])), 0), w - 1), min(max(int(np.floor(xy[1])), 0), h - 1)
-            sums[pid] = sums.get(pid, 0.0) + img[y, x].astype(np.float64)
-            counts[pid] = counts.get(pid, 0) + 1
+        row = np.searchsorted(pids, [pid for pid, _ in obs])
+        xy = np.floor(np.array([xy for _, xy in obs])).astype(int)
+        np.add.at(sums, row, img[np.clip(xy[:, 1], 0, h - 1), np.clip(xy[:, 0], 0, w - 1)])
+        np.add.at(counts, row, 1)
     changed = 0
-    for pid, s in sums.items():
-        color = np.clip(np.round(s / counts[pid]), 0, 255).astype(np.uint8)
-        pt = rec.point3D(pid)
+    for k in np.flatnonzero(counts):
+        color = np.clip(np.round(sums[k] / counts[k]), 0, 255).astype(np.uint8)
+        pt = rec.point3D(int(pids[k]))
         changed += int(np.any(pt.color != color))
         pt.color = color
     return changed
