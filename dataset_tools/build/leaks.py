@@ -8,7 +8,7 @@ object-inclusive image observes it: one ray does not fix a depth, so its positio
 object-free views (measured on the synthetic benchmark: 34-132 such points per scene); and when the
 object-inclusive rays meet at less than ``min_inclusive_angle_deg`` (1.5°, the minimum triangulation
 angle of COLMAP's mapper): nearly parallel rays do not fix it either, so a training-only
-reconstruction would not have that point (4-64 per synthetic scene; on the two scenes inspected every
+reconstruction would not have that point (4-65 per synthetic scene; on the two scenes inspected every
 one of them was also observed by object-free views).
 """
 
