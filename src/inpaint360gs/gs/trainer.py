@@ -4,7 +4,11 @@
 scene's training views with the 3DGS recipe (see :mod:`inpaint360gs.gs.config`), checkpoints
 atomically, stops with :class:`TrainingDivergedError` on NaN/Inf, evaluates on the held-out views and
 writes ``point_cloud.ply``, ``metrics.json``, ``config.yaml`` and ``train_log.csv`` to ``out_dir``.
-Given the same scene, config and seed it is deterministic, and a resumed run continues bit-for-bit.
+Given the same scene, config and seed, runs repeat bit-for-bit once numba's on-disk kernel cache
+exists, and a resumed run continues bit-for-bit. The run that first compiles the kernels (a fresh
+clone or an emptied cache) differs at float-rounding level from step 1 on, which after 3000 steps
+is measurable: cone held-out PSNR 33.62 dB in a fresh clone vs 32.89 dB with a warm cache; reduced
+cone 26.32 vs 26.34 dB. Cause not yet found (single renders match exactly, cold vs warm).
 """
 
 from __future__ import annotations
