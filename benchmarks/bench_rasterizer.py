@@ -48,8 +48,8 @@ def make_scene(n: int, width: int, height: int, seed: int = 0):
     """(Gaussians, Camera): the seeded synthetic 'trained-like' scene described in the module docstring."""
     import torch
 
-    from inpaint360gs.gs.gaussians import Gaussians
-    from inpaint360gs.render.camera import Camera
+    from inpaint360gs.core.gaussians import Gaussians
+    from inpaint360gs.core.camera import Camera
 
     gen = torch.Generator().manual_seed(seed)
 

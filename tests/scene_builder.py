@@ -15,7 +15,7 @@ import numpy as np
 import pycolmap
 import torch
 
-from inpaint360gs.render.camera import Camera
+from inpaint360gs.core.camera import Camera
 
 
 def orbit_cameras(n: int, *, radius: float = 4.0, height: float = 1.0, width: int = 64, h: int = 48, f: float = 60.0, prefix: str = "IMG_", phase: float = 0.0) -> list[Camera]:

@@ -10,7 +10,7 @@ import pytest
 
 from dataset_tools.build.captures import CaptureConfig, collect_captures
 from dataset_tools.cli import main as dataset_main
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 
 def _img(path: Path, w: int = 32, h: int = 24, seed: int = 0) -> Path:

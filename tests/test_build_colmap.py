@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 from dataset_tools.build import handmade as hm
 from dataset_tools.build.colmap import SfMConfig, _pair_list, needs_undistortion, read_model, to_pinhole
 from dataset_tools.build.posecheck import pose_accuracy, rotation_angle_deg
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 INC = [f"IMG_{i:03d}.png" for i in range(40)]
 FREE = [f"test_{i:03d}.png" for i in range(10)]

@@ -15,7 +15,7 @@ from dataset_tools.build.importers import import_360usid, import_spinnerf
 from dataset_tools.build.leaks import leaked_point_ids
 from dataset_tools.build.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 
 def _source(tmp_path: Path, rename) -> tuple[Path, int, dict]:

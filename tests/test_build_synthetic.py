@@ -22,7 +22,7 @@ from dataset_tools.build.synth_export import export_raw_captures, leak_check, ob
 from dataset_tools.build.unseen import UnseenConfig, derive_unseen_masks, load_object_masks, mask_iou
 from dataset_tools.build.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 pytestmark = pytest.mark.slow  # ~30 s: rendering the capture dominates
 

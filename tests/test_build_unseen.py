@@ -21,7 +21,7 @@ from dataset_tools.build.unseen import (
 )
 from dataset_tools.build.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ import pytest
 import torch
 from plyfile import PlyData, PlyElement
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.ply import ply_field_names, read_ply, write_ply
 
 

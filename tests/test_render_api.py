@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 import torch
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.render import Camera, available_backends, render
 from inpaint360gs.render.api import resolve_backend
 

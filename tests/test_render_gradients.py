@@ -7,7 +7,7 @@ import math
 import pytest
 import torch
 
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.render import Camera, available_backends, render
 
 D = torch.float64

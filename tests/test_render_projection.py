@@ -7,8 +7,9 @@ import math
 import pytest
 import torch
 
-from inpaint360gs.render.camera import Camera
-from inpaint360gs.render.projection import covariance_3d, project_gaussians, quat_to_rotmat
+from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.gaussians import quat_to_rotmat
+from inpaint360gs.render.projection import covariance_3d, project_gaussians
 from inpaint360gs.render.sh import SH_C1, eval_sh, sh_basis, sh_to_rgb
 
 D = torch.float64

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from inpaint360gs.gs.gaussians import SH_C0, Gaussians
+from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.render import Camera, available_backends, render
 from inpaint360gs.render.torch_backend import rasterize_to_pixels_torch
 

@@ -11,8 +11,9 @@ import pytest
 import torch
 from scene_builder import orbit_cameras, simple_scene, write_model, write_png
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.io.scene import TestPixelAccessError, load_scene
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.errors import TestPixelAccessError
+from inpaint360gs.io.scene import load_scene
 
 
 def _project(cam, x):

@@ -23,7 +23,7 @@ from dataset_tools.synth.cameras import View, orbit_geometry
 from dataset_tools.synth.raycast import World
 from dataset_tools.synth.render import render
 from dataset_tools.synth.scene import REDUCED_VIEWS
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 W, H = 96, 72
 

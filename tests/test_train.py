@@ -13,11 +13,11 @@ import yaml
 from scene_builder import orbit_cameras, write_model, write_png
 
 from inpaint360gs.cli import main
-from inpaint360gs.errors import InputError, TrainingDivergedError
+from inpaint360gs.core.errors import InputError, TrainingDivergedError
 from inpaint360gs.gs.checkpoint import load_checkpoint
 from inpaint360gs.gs.config import DensifyConfig, TrainConfig
 from inpaint360gs.gs.evaluate import evaluate_views
-from inpaint360gs.gs.gaussians import SH_C0, Gaussians
+from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.gs.trainer import init_gaussians, train
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import load_scene

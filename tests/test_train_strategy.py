@@ -8,9 +8,10 @@ import pytest
 import torch
 
 from inpaint360gs.gs.config import DensifyConfig, TrainConfig
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.gs.optim import learning_rates, make_optimizers, make_params, means_lr
-from inpaint360gs.gs.strategy import DensifyStrategy, quat_to_rotmat
+from inpaint360gs.core.gaussians import quat_to_rotmat
+from inpaint360gs.gs.strategy import DensifyStrategy
 
 EXTENT = 10.0  # percent_dense 0.01 -> clone if max scale <= 0.1, split above
 

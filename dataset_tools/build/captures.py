@@ -19,7 +19,7 @@ from pathlib import Path
 
 from PIL import Image
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png")
 TEST_PREFIX = "test_"

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 # Camera models without distortion: nothing to undistort.
 PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")

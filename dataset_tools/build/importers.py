@@ -29,7 +29,7 @@ from dataset_tools.build.captures import IMAGE_SUFFIXES, TEST_PREFIX, is_test_na
 from dataset_tools.build.colmap import PINHOLE_MODELS, read_model, to_pinhole
 from dataset_tools.build.layout import find_mask, provenance, read_image, write_json, write_mask
 from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 
 LAYOUTS = ("360usid", "spinnerf")

@@ -11,7 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 JPEG_QUALITY = 95
 

@@ -29,7 +29,7 @@ from dataset_tools.build.layout import (
 )
 from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points, remove_points_in_masks
 from dataset_tools.build.progress import StageProgress
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 
 

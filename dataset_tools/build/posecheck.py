@@ -13,7 +13,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import pycolmap
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 Pose = tuple[np.ndarray, np.ndarray]  # (R world->camera (3, 3), t (3,)), COLMAP convention
 

@@ -23,7 +23,7 @@ from dataset_tools.build.layout import write_json
 from dataset_tools.build.pipeline import BuildConfig, BuildReport, build_dataset
 from dataset_tools.build.posecheck import pose_accuracy, reconstruction_poses, similarity_to_true
 from dataset_tools.build.synth_export import export_raw_captures, orbit_radius, true_poses
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 
 

@@ -17,7 +17,7 @@ from dataset_tools.build.captures import TEST_PREFIX, is_test_name
 from dataset_tools.build.colmap import read_model
 from dataset_tools.build.layout import read_image, write_mask
 from dataset_tools.build.posecheck import Pose, PoseAccuracy, pose_accuracy, reconstruction_poses, similarity_to_true
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 
 

@@ -19,7 +19,7 @@ from dataset_tools.build.unseen import (
     load_object_masks,
     write_unseen_masks,
 )
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

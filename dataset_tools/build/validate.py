@@ -16,7 +16,7 @@ from dataset_tools.build.captures import IMAGE_SUFFIXES, is_test_name, read_imag
 from dataset_tools.build.colmap import PINHOLE_MODELS, read_model
 from dataset_tools.build.layout import find_mask, read_image, scaled_size
 from dataset_tools.build.leaks import leaked_point_ids
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 LLFFHOLD = 8  # every 8th non-test image (sorted by name) is a held-out view (DESIGN.md §3)
 

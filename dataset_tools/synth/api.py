@@ -22,7 +22,7 @@ def render_view(
     """Render any camera of a scene: RGB (supersampled), centre-ray z-depth, instance ids and hit points.
 
     ``scene``: a :class:`SynthScene` or a generated scene folder. ``camera``: a :class:`View` or an
-    :class:`inpaint360gs.render.camera.Camera`. ``with_objects=False`` removes the removal targets
+    :class:`inpaint360gs.core.camera.Camera`. ``with_objects=False`` removes the removal targets
     (the object-free capture); ``hidden`` instead names exactly which object ids to remove.
     """
     sc = as_scene(scene)

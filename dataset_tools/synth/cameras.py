@@ -1,7 +1,7 @@
 """Capture poses of a synthetic scene: one shared PINHOLE intrinsic, a 360° orbit and object-free views near it.
 
 Poses follow COLMAP/OpenCV (``x_cam = R x_world + t``; x right, y down, z forward), like
-:class:`inpaint360gs.render.camera.Camera`, but in float64 numpy so that GT is exact.
+:class:`inpaint360gs.core.camera.Camera`, but in float64 numpy so that GT is exact.
 """
 
 from __future__ import annotations
@@ -68,10 +68,10 @@ class View:
         }
 
     def to_camera(self):
-        """The same view as an :class:`inpaint360gs.render.camera.Camera` (float64 tensors)."""
+        """The same view as an :class:`inpaint360gs.core.camera.Camera` (float64 tensors)."""
         import torch
 
-        from inpaint360gs.render.camera import Camera
+        from inpaint360gs.core.camera import Camera
 
         return Camera(
             R=torch.from_numpy(self.R.copy()), t=torch.from_numpy(self.t.copy()), fx=self.fx, fy=self.fy,
@@ -80,7 +80,7 @@ class View:
 
     @staticmethod
     def from_camera(cam, object_free: bool = False) -> "View":
-        """Accept an :class:`inpaint360gs.render.camera.Camera` (any dtype/device)."""
+        """Accept an :class:`inpaint360gs.core.camera.Camera` (any dtype/device)."""
         R = np.asarray(cam.R.detach().cpu().double().numpy(), dtype=np.float64)
         t = np.asarray(cam.t.detach().cpu().double().numpy(), dtype=np.float64)
         return View(cam.name or "view", R, t, float(cam.fx), float(cam.fy), float(cam.cx), float(cam.cy),

@@ -338,7 +338,7 @@ SCENES: dict[str, SceneSpec] = _build()
 
 def scene_spec(name: str) -> SceneSpec:
     """The catalogue entry ``name``; unknown names raise :class:`InputError` listing the known ones."""
-    from inpaint360gs.errors import InputError
+    from inpaint360gs.core.errors import InputError
 
     if name not in SCENES:
         raise InputError(f"unknown synthetic scene {name!r} (known: {', '.join(sorted(SCENES))})")

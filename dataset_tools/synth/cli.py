@@ -10,7 +10,7 @@ import argparse
 import time
 from pathlib import Path
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

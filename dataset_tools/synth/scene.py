@@ -17,7 +17,7 @@ from dataset_tools.synth.cameras import View, capture_views
 from dataset_tools.synth.catalogue import scene_spec
 from dataset_tools.synth.raycast import World
 from dataset_tools.synth.spec import SceneSpec
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 FULL_SIZE = (256, 192)  # benchmark resolution (width, height)
 REDUCED_SIZE = (128, 96)

@@ -12,7 +12,7 @@ from typing import Any
 
 import torch
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_path
 
 CHECKPOINT_NAME = "checkpoint.pt"

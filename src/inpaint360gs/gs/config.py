@@ -92,7 +92,7 @@ class TrainConfig:
     log_every: int = 50  # steps between rows of train_log.csv
 
     def validate(self) -> None:
-        from inpaint360gs.errors import InputError
+        from inpaint360gs.core.errors import InputError
 
         if self.iterations < 1:
             raise InputError(f"iterations must be >= 1, got {self.iterations}", "--iterations")

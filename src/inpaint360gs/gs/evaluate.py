@@ -6,7 +6,7 @@ from collections.abc import Sequence
 
 import torch
 
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.scene import Scene, View
 from inpaint360gs.metrics import psnr, ssim
 

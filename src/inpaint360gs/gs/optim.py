@@ -14,7 +14,7 @@ from collections.abc import Callable
 import torch
 
 from inpaint360gs.gs.config import TrainConfig
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.gaussians import Gaussians
 
 PARAM_NAMES = ("means", "log_scales", "quats", "opacity_logits", "sh0", "shN")
 

@@ -16,21 +16,9 @@ from dataclasses import dataclass
 
 import torch
 
+from inpaint360gs.core.gaussians import quat_to_rotmat
 from inpaint360gs.gs.config import DensifyConfig
 from inpaint360gs.gs.optim import PARAM_NAMES, Optimizers, Params, append_rows, keep_rows, reset_param
-
-
-def quat_to_rotmat(q: torch.Tensor) -> torch.Tensor:
-    """(N, 4) quaternions (w, x, y, z), normalised here, -> (N, 3, 3) rotation matrices."""
-    w, x, y, z = torch.nn.functional.normalize(q, dim=-1).unbind(-1)
-    return torch.stack(
-        [
-            1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
-        ],
-        dim=-1,
-    ).reshape(-1, 3, 3)  # fmt: skip
 
 
 @dataclass

@@ -27,11 +27,11 @@ import psutil
 import torch
 import yaml
 
-from inpaint360gs.errors import InputError, TrainingDivergedError
+from inpaint360gs.core.errors import InputError, TrainingDivergedError
 from inpaint360gs.gs.checkpoint import CHECKPOINT_NAME, load_checkpoint, save_checkpoint
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.gs.evaluate import evaluate_views
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.gs.loss import photometric_loss
 from inpaint360gs.gs.optim import (
     PARAM_NAMES,

@@ -39,7 +39,7 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
 
     With ``overwrite=False`` an existing non-empty target is an error (raised before any work).
     """
-    from inpaint360gs.errors import InputError
+    from inpaint360gs.core.errors import InputError
 
     target = Path(target)
     if target.exists() and any(target.iterdir()) and not overwrite:

@@ -2,22 +2,23 @@
 
 Images are kept in their stored integer type (uint8 / uint16) until they are used, so a scene's
 training images cost one byte per channel in memory; :func:`to_float` converts to [0, 1].
-Every reader raises :class:`~inpaint360gs.errors.InputError` naming the file on bad input, and every
+Every reader raises :class:`~inpaint360gs.core.errors.InputError` naming the file on bad input, and every
 writer writes atomically (DESIGN.md §7).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 import cv2
 import numpy as np
 import torch
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.layout import MASK_SUFFIXES
 from inpaint360gs.io.atomic import atomic_path
 
-IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 
 def read_image(path: str | Path) -> np.ndarray:
@@ -57,6 +58,31 @@ def read_mask(path: str | Path) -> np.ndarray:
     if m.ndim == 3:
         m = m[:, :, 0]
     return np.ascontiguousarray(m)
+
+
+def binary_mask(labels: np.ndarray) -> np.ndarray:
+    """Boolean mask from stored values: above half the type's range (0/255 masks, the paper's
+    evaluation rule "> 127" for 8 bit), or above 0 for masks stored as 0/1 labels."""
+    if labels.size and labels.max() <= 1:
+        return labels > 0
+    top = np.iinfo(labels.dtype).max if np.issubdtype(labels.dtype, np.integer) else 1.0
+    return labels > top / 2
+
+
+def read_binary_mask(path: str | Path) -> np.ndarray:
+    """(H, W) bool mask of a mask file (see :func:`binary_mask`)."""
+    return binary_mask(read_mask(path))
+
+
+def find_mask(mask_dir: str | Path, candidates: Iterable[str]) -> Path | None:
+    """First mask file in ``mask_dir`` for the candidate names: each as given (an image's own file
+    name), then its stem with every mask suffix of the layout."""
+    mask_dir = Path(mask_dir)
+    for name in candidates:
+        for cand in (mask_dir / name, *(mask_dir / f"{Path(name).stem}{s}" for s in MASK_SUFFIXES)):
+            if cand.is_file():
+                return cand
+    return None
 
 
 def image_size(path: str | Path) -> tuple[int, int]:
@@ -115,6 +141,22 @@ def write_image(path: str | Path, img: np.ndarray | torch.Tensor) -> None:
     with atomic_path(path) as tmp:
         if not cv2.imwrite(str(tmp), a, _encode_params(path)):
             raise InputError("cannot write image", path)
+
+
+def write_mask(path: str | Path, mask: np.ndarray | torch.Tensor) -> None:
+    """Binary mask as an 8-bit PNG (255 inside, 0 outside), atomically."""
+    m = mask.detach().cpu().numpy() if isinstance(mask, torch.Tensor) else np.asarray(mask)
+    write_labels(path, np.where(m.astype(bool), 255, 0).astype(np.uint8))
+
+
+def write_labels(path: str | Path, labels: np.ndarray) -> None:
+    """Single-channel label image (uint8 or uint16 PNG), atomically."""
+    path = Path(path)
+    if labels.dtype not in (np.uint8, np.uint16):
+        raise ValueError(f"label images are uint8 or uint16, got {labels.dtype}")
+    with atomic_path(path) as tmp:
+        if not cv2.imwrite(str(tmp), np.ascontiguousarray(labels)):
+            raise InputError("cannot write mask", path)
 
 
 def write_depth(path_stem: str | Path, depth: np.ndarray | torch.Tensor) -> float:

@@ -17,8 +17,8 @@ import numpy as np
 import torch
 from plyfile import PlyData, PlyElement
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.gs.gaussians import Gaussians
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.atomic import atomic_path
 
 _BASE = ["x", "y", "z", "nx", "ny", "nz", "f_dc_0", "f_dc_1", "f_dc_2"]

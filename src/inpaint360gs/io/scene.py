@@ -1,12 +1,8 @@
-"""Load a scene folder in the Inpaint360GS layout (DESIGN.md §3) through pycolmap.
+"""Load a scene folder in the Inpaint360GS layout (:mod:`inpaint360gs.core.layout`) through pycolmap.
 
-Layout: ``images/`` (object-free ground-truth captures named ``test_*``), ``sparse/0`` (one COLMAP
-model registering all images), optional ``images_<r>/`` downscaled copies, ``unseen_mask/``,
-``object_mask/`` and ``scene.json``.
-
-Splits (paper supp. Sec. C, "evaluation mode"): ``test_*`` views are the inpainting-evaluation views;
-among the others, sorted by name, every ``llffhold``-th (index 0, 8, 16, ...) is held out for
-reconstruction evaluation and the rest are training views, as in the original 3DGS loader.
+Splits follow :func:`inpaint360gs.core.layout.assign_splits`: ``test_*`` views are the inpainting
+evaluation views; among the others, sorted by name, every ``llffhold``-th is held out for
+reconstruction evaluation and the rest are training views (original 3DGS loader).
 
 Policy for images on disk that the model does not register: an error by default (such a file is
 usually a failed registration or a stray ground-truth capture, and silently ignoring it hides
@@ -29,21 +25,14 @@ from typing import Literal
 import numpy as np
 import torch
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.io.images import IMAGE_SUFFIXES, image_size, read_image, read_mask, resize_image, resize_mask, to_float
-from inpaint360gs.render.camera import Camera
+from inpaint360gs.core import layout
+from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.errors import InputError, TestPixelAccessError
+from inpaint360gs.core.layout import Split
+from inpaint360gs.io.colmap import image_camera, read_model
+from inpaint360gs.io.images import binary_mask, find_mask, image_size, read_image, read_mask, resize_image, resize_mask, to_float
 
-Split = Literal["train", "holdout", "test"]
-TEST_PREFIX = "test_"
-MASK_KINDS = ("unseen_mask", "object_mask")
-MASK_SUFFIXES = (".png", ".PNG", ".jpg", ".jpeg", ".JPG", ".tif", ".tiff")
-PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE")
-
-
-class TestPixelAccessError(RuntimeError):
-    """A method stage asked for the pixels of a ``test_`` view (only evaluation may read them)."""
-
-    __test__ = False  # not a pytest test class
+MASK_KINDS = (layout.UNSEEN_MASK_DIR, layout.OBJECT_MASK_DIR)
 
 
 @dataclass(frozen=True)
@@ -140,10 +129,7 @@ class Scene:
         m = read_mask(path)
         cam = view.camera
         m = resize_mask(m, cam.width, cam.height)
-        if kind == "unseen_mask":
-            top = np.iinfo(m.dtype).max if np.issubdtype(m.dtype, np.integer) else 1.0
-            return m > top / 2
-        return m
+        return binary_mask(m) if kind == layout.UNSEEN_MASK_DIR else m
 
     @property
     def extent(self) -> float:
@@ -161,54 +147,12 @@ def nerf_radius(cameras: Sequence[Camera]) -> float:
     return 1.1 * d if d > 0 else 1.0
 
 
-def is_test_name(name: str) -> bool:
-    return Path(name).name.startswith(TEST_PREFIX)
-
-
-def _read_model(sparse: Path):
-    import pycolmap
-
-    if not sparse.is_dir():
-        raise InputError("missing COLMAP model folder sparse/0", sparse)
-    if not any((sparse / f"cameras.{ext}").is_file() for ext in ("bin", "txt")):
-        raise InputError("no cameras.bin or cameras.txt in the COLMAP model folder", sparse)
-    try:
-        return pycolmap.Reconstruction(str(sparse))
-    except Exception as e:  # pycolmap raises plain RuntimeError/ValueError with a multi-line text
-        msg = str(e).strip().splitlines()[-1] if str(e).strip() else e.__class__.__name__
-        raise InputError(f"cannot read COLMAP model ({msg})", sparse) from None
-
-
-def _intrinsics(cam, sparse: Path) -> tuple[float, float, float, float]:
-    model = cam.model_name
-    if model == "PINHOLE":
-        fx, fy, cx, cy = (float(x) for x in cam.params)
-    elif model == "SIMPLE_PINHOLE":
-        f, cx, cy = (float(x) for x in cam.params)
-        fx = fy = f
-    else:
-        raise InputError(
-            f"camera {cam.camera_id} uses model {model}, which has distortion or is not a pinhole; "
-            "undistort the images first (colmap image_undistorter / pycolmap.undistort_images) so the "
-            "model is PINHOLE or SIMPLE_PINHOLE",
-            sparse / "cameras.bin",
-        )
-    return fx, fy, cx, cy
-
-
-def _find_mask(mask_dir: Path, name: str) -> Path | None:
-    for cand in (mask_dir / name, *(mask_dir / f"{Path(name).stem}{s}" for s in MASK_SUFFIXES)):
-        if cand.is_file():
-            return cand
-    return None
-
-
 def _disk_images(images_dir: Path) -> set[str]:
     """Image files under images/ (relative names, subfolders included; hidden files skipped)."""
     out = set()
     for p in images_dir.rglob("*"):
         rel = p.relative_to(images_dir)
-        if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES and not any(s.startswith(".") for s in rel.parts):
+        if p.is_file() and layout.is_image_name(p.name) and not any(s.startswith(".") for s in rel.parts):
             out.add(rel.as_posix())
     return out
 
@@ -217,11 +161,11 @@ def load_scene(
     root: str | Path,
     *,
     resize: int = 1,
-    llffhold: int = 8,
+    llffhold: int = layout.LLFFHOLD,
     load_masks: bool | Sequence[str] = True,
     unregistered: Literal["error", "warn"] = "error",
 ) -> Scene:
-    """Read a scene folder (DESIGN.md §3) at image downscale factor ``resize``.
+    """Read a scene folder (:mod:`inpaint360gs.core.layout`) at image downscale factor ``resize``.
 
     Only file headers are read here (sizes are checked); pixels are read by ``Scene.load_image``.
     ``llffhold <= 0`` puts every non-test view into training. Raises ``InputError`` naming the file
@@ -233,28 +177,20 @@ def load_scene(
     if int(resize) != resize or resize < 1:
         raise InputError(f"resize factor must be an integer >= 1, got {resize}", "--resize")
     resize = int(resize)
-    images_dir = root / "images"
+    images_dir = root / layout.IMAGES_DIR
     if not images_dir.is_dir():
         raise InputError("missing images/ folder", images_dir)
-    sparse = root / "sparse" / "0"
-    rec = _read_model(sparse)
+    sparse = root / layout.SPARSE_DIR
+    rec = read_model(sparse)
 
-    scaled_dir = root / f"images_{resize}"
+    scaled_dir = root / layout.scaled_images_dir(resize)
     use_scaled = resize > 1 and scaled_dir.is_dir()
 
     entries = []
     for image_id, im in sorted(rec.images.items(), key=lambda kv: kv[1].name):  # deterministic order
         if not im.has_pose:
             continue
-        cam = rec.cameras[im.camera_id]
-        fx, fy, cx, cy = _intrinsics(cam, sparse)
-        pose = np.asarray(im.cam_from_world().matrix(), dtype=np.float64)
-        full = Camera(
-            R=torch.from_numpy(pose[:, :3]).float(),
-            t=torch.from_numpy(pose[:, 3]).float(),
-            fx=fx, fy=fy, cx=cx, cy=cy,
-            width=int(cam.width), height=int(cam.height), name=im.name,
-        )  # fmt: skip
+        full = image_camera(rec, im, sparse / "cameras.bin")
         src = images_dir / im.name
         if not src.is_file():
             raise InputError(f"image {im.name} is registered in sparse/0 but missing on disk", src)
@@ -282,15 +218,12 @@ def load_scene(
         warnings.warn(f"{images_dir}: {msg}; they are ignored", stacklevel=2)
 
     entries.sort(key=lambda e: e[0])
-    others = [e for e in entries if not is_test_name(e[0])]
-    holdout = {e[0] for i, e in enumerate(others) if llffhold > 0 and i % llffhold == 0}
-    views = []
-    for name, camera, path, image_id, camera_id, on_load in entries:
-        split: Split = "test" if is_test_name(name) else ("holdout" if name in holdout else "train")
-        views.append(View(name, split, camera, path, image_id, camera_id, on_load))
+    splits = layout.assign_splits([e[0] for e in entries], llffhold)
+    views = [View(name, splits[name], camera, path, image_id, camera_id, on_load) for name, camera, path, image_id, camera_id, on_load in entries]
     if not any(v.split == "train" for v in views):
+        n_test = sum(v.split == "test" for v in views)
         raise InputError(
-            f"no training views ({len(entries)} registered images, {len(entries) - len(others)} named test_*, "
+            f"no training views ({len(entries)} registered images, {n_test} named test_*, "
             f"llffhold={llffhold})",
             sparse,
         )
@@ -300,7 +233,7 @@ def load_scene(
     rgb = np.array([p.color for p in pts], dtype=np.float32).reshape(-1, 3) / 255.0
 
     info: dict = {}
-    info_path = root / "scene.json"
+    info_path = root / layout.SCENE_JSON
     if info_path.is_file():
         try:
             info = json.loads(info_path.read_text())
@@ -317,7 +250,7 @@ def load_scene(
             continue
         found = {}
         for v in views:
-            p = _find_mask(mdir, v.name)
+            p = find_mask(mdir, [v.name])
             if p is None:
                 continue
             size = image_size(p)

@@ -14,9 +14,9 @@ from functools import cache
 
 import torch
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.gs.gaussians import Gaussians
-from inpaint360gs.render.camera import Camera
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.camera import Camera
 from inpaint360gs.render.projection import project_gaussians
 from inpaint360gs.render.sh import sh_to_rgb
 

@@ -11,7 +11,7 @@ import numba
 import numpy as np
 import torch
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.render import numba_kernels as K
 from inpaint360gs.render.tiles import tile_grid
 

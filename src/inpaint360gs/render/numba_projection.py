@@ -18,7 +18,7 @@ import torch
 import inpaint360gs.render.numba_cache  # noqa: F401  (sets the cache folder before the kernels are defined)
 from numba import njit, prange  # isort: skip
 
-from inpaint360gs.render.camera import Camera
+from inpaint360gs.core.camera import Camera
 from inpaint360gs.render.numba_backend import _np32, _set_threads
 from inpaint360gs.render.sh import SH_C0, SH_C1, SH_C2, SH_C3
 

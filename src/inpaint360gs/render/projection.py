@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import torch
 
-from inpaint360gs.render.camera import Camera
+from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.gaussians import quat_to_rotmat
 
 
 @dataclass
@@ -26,20 +27,6 @@ class Projection:
     depths: torch.Tensor  # (N,) camera-space z of the centre
     radii: torch.Tensor  # (N,) int32, 3-sigma radius in pixels, 0 = culled
     cov2d: torch.Tensor  # (N, 3) dilated 2D covariance (xx, xy, yy)
-
-
-def quat_to_rotmat(quats: torch.Tensor) -> torch.Tensor:
-    """Rotation matrices (N, 3, 3) from quaternions (N, 4) in (w, x, y, z) order; normalised first."""
-    q = quats / quats.norm(dim=-1, keepdim=True).clamp_min(1e-12)
-    w, x, y, z = q.unbind(-1)
-    return torch.stack(
-        [
-            1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
-        ],
-        dim=-1,
-    ).reshape(-1, 3, 3)  # fmt: skip
 
 
 def covariance_3d(quats: torch.Tensor, log_scales: torch.Tensor) -> torch.Tensor:

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import torch
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.gs.gaussians import SH_C0
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import SH_C0
 
 SH_C1 = 0.4886025119029199
 SH_C2 = (1.0925484305920792, -1.0925484305920792, 0.31539156525252005, -1.0925484305920792, 0.5462742152960396)

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_path, write_text
 
 

@@ -2,7 +2,7 @@
 
 Each stage lives in its own module that defines ``add_arguments(parser)`` and ``run(args) -> int``;
 modules are imported only when their stage runs, so ``--help`` stays fast. Errors in user input
-(:class:`~inpaint360gs.errors.InputError`) and diverged training print one line and exit non-zero.
+(:class:`~inpaint360gs.core.errors.InputError`) and diverged training print one line and exit non-zero.
 """
 
 from __future__ import annotations
@@ -13,15 +13,15 @@ import sys
 
 # stage name -> (module, one-line help)
 STAGES: dict[str, tuple[str, str]] = {
-    "train": ("inpaint360gs.gs.train_cli", "train 3D Gaussian Splatting on a scene folder"),
-    "render": ("inpaint360gs.render.render_cli", "render a trained model at a scene's cameras"),
-    "table": ("inpaint360gs.report.table_cli", "collect per-scene metrics.json files into CSV/Markdown tables"),
+    "train": ("inpaint360gs.cli.train", "train 3D Gaussian Splatting on a scene folder"),
+    "render": ("inpaint360gs.cli.render", "render a trained model at a scene's cameras"),
+    "table": ("inpaint360gs.cli.table", "collect per-scene metrics.json files into CSV/Markdown tables"),
 }
 
 
 def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | None, description: str) -> int:
     """Shared dispatcher for ``inpaint360gs`` and ``inpaint360gs-dataset``."""
-    from inpaint360gs.errors import InputError, TrainingDivergedError
+    from inpaint360gs.core.errors import InputError, TrainingDivergedError
 
     parser = argparse.ArgumentParser(prog=prog, description=description)
     sub = parser.add_subparsers(dest="stage", metavar="STAGE", required=True)

@@ -18,6 +18,20 @@ def num_sh_bases(degree: int) -> int:
     return (degree + 1) ** 2
 
 
+def quat_to_rotmat(quats: torch.Tensor) -> torch.Tensor:
+    """Rotation matrices (N, 3, 3) from quaternions (N, 4) in (w, x, y, z) order; normalised first."""
+    q = quats / quats.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+    w, x, y, z = q.unbind(-1)
+    return torch.stack(
+        [
+            1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+            2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+            2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
+        ],
+        dim=-1,
+    ).reshape(-1, 3, 3)  # fmt: skip
+
+
 @dataclass
 class Gaussians:
     means: torch.Tensor  # (N, 3) world positions

@@ -12,7 +12,7 @@ import json
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from inpaint360gs.gs.train_cli import add_threads_argument
+    from inpaint360gs.cli.train import add_threads_argument
 
     parser.add_argument("model", help="Gaussian PLY (3DGS layout)")
     parser.add_argument("scene", help="scene folder whose cameras to render")
@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     import torch
     from tqdm import tqdm
 
-    from inpaint360gs.gs.train_cli import set_threads
+    from inpaint360gs.cli.train import set_threads
     from inpaint360gs.io.atomic import atomic_dir
     from inpaint360gs.io.images import write_depth, write_image
     from inpaint360gs.io.ply import read_ply

@@ -1,0 +1,98 @@
+"""Names of the scene folder and of the method's outputs: the one place they are spelled.
+
+Scene folder (docs/architecture.md, "Scene format"; compatible with the released Inpaint360GS
+dataset)::
+
+    <scene>/images/          all captures; object-free ground-truth captures are named test_*
+    <scene>/images_<r>/      optional copies downscaled by r
+    <scene>/sparse/0/        one COLMAP model registering ALL images, points from training views only
+    <scene>/unseen_mask/     per test_ image: 255 = never seen by a training camera while the objects were present
+    <scene>/object_mask/     associated per-view object-id masks (written by the association stage)
+    <scene>/scene.json       objects, removal targets with a click each, provenance
+    <scene>/gt/              synthetic scenes only: true poses, instance masks, depth, object list
+
+Splits (paper supp. Sec. B, "evaluation mode" of 3DGS): ``test_*`` views are the inpainting
+evaluation views; the other views, sorted by name, alternate so that every ``llffhold``-th one
+(index 0, 8, 16, ...) is held out for reconstruction evaluation and the rest train.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+IMAGES_DIR = "images"
+SPARSE_DIR = "sparse/0"
+UNSEEN_MASK_DIR = "unseen_mask"
+OBJECT_MASK_DIR = "object_mask"
+SCENE_JSON = "scene.json"
+GT_DIR = "gt"
+
+TEST_PREFIX = "test_"
+# Image files a scene folder or a capture folder may hold (what OpenCV, PIL and COLMAP all read).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
+# Mask files are looked up by the image's stem with one of these suffixes (or the image's own name).
+MASK_SUFFIXES = (".png", ".PNG", ".jpg", ".jpeg", ".JPG", ".tif", ".tiff")
+LLFFHOLD = 8
+
+Split = Literal["train", "holdout", "test"]
+
+
+def is_test_name(name: str, prefix: str = TEST_PREFIX) -> bool:
+    """True for object-free ground-truth views: the file name starts with ``test_``."""
+    return Path(name).name.startswith(prefix)
+
+
+def is_image_name(name: str) -> bool:
+    return Path(name).suffix.lower() in IMAGE_SUFFIXES
+
+
+def scaled_images_dir(resize: int) -> str:
+    return f"{IMAGES_DIR}_{resize}"
+
+
+def assign_splits(names: list[str], llffhold: int = LLFFHOLD) -> dict[str, Split]:
+    """Split of every image name (see the module docstring); ``llffhold <= 0`` holds nothing out."""
+    others = sorted(n for n in names if not is_test_name(n))
+    held = {n for i, n in enumerate(others) if llffhold > 0 and i % llffhold == 0}
+    return {n: ("test" if is_test_name(n) else "holdout" if n in held else "train") for n in names}
+
+
+@dataclass(frozen=True)
+class RunLayout:
+    """Output folders of ``inpaint360gs run SCENE OUT``: one sub-folder per method stage."""
+
+    root: Path
+
+    @property
+    def gs(self) -> Path:  # trained 3DGS (point_cloud.ply, metrics.json, ...)
+        return self.root / "3dgs"
+
+    @property
+    def segment(self) -> Path:  # raw per-view 2D masks
+        return self.root / "segment"
+
+    @property
+    def associate(self) -> Path:  # view-consistent object masks + object list
+        return self.root / "associate"
+
+    @property
+    def distill(self) -> Path:  # Gaussians with identity features + classifier
+        return self.root / "distill"
+
+    @property
+    def removed(self) -> Path:  # edited scene after removal, AMCR masks
+        return self.root / "removed"
+
+    @property
+    def inpainted(self) -> Path:  # final scene after 2D/3D inpainting
+        return self.root / "inpainted"
+
+    @property
+    def renders(self) -> Path:  # renders of the final scene at the test_ cameras
+        return self.root / "renders"
+
+    @property
+    def model(self) -> Path:  # the 3DGS model the later stages read
+        return self.gs / "point_cloud.ply"
