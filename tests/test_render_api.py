@@ -11,7 +11,7 @@ import torch
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.render import Camera, available_backends, render
-from inpaint360gs.render.api import resolve_backend
+from inpaint360gs.render.backends import RasterizerBackend, backend_names, get_backend, resolve_backend
 
 
 def _scene(n=30, dtype=torch.float32, features=True, seed=0):
@@ -33,9 +33,22 @@ def _scene(n=30, dtype=torch.float32, features=True, seed=0):
 def test_available_backends_and_auto_choice():
     avail = available_backends()
     assert "torch" in avail
-    assert resolve_backend("auto", torch.device("cpu"), torch.float64) == "torch"  # float64 = the reference
+    assert resolve_backend("auto", torch.device("cpu"), torch.float64).name == "torch"  # float64 = the reference
     expect = "numba" if "numba" in avail else "torch"
-    assert resolve_backend("auto", torch.device("cpu"), torch.float32) == expect
+    assert resolve_backend("auto", torch.device("cpu"), torch.float32).name == expect
+
+
+def test_backend_registry_is_one_list_of_interface_implementations():
+    names = backend_names()
+    assert set(names) >= {"torch", "numba", "gsplat"}
+    for n in names:  # every registered module implements the interface under its own name
+        b = get_backend(n)
+        assert isinstance(b, RasterizerBackend) and b.name == n
+    with pytest.raises(InputError, match="unknown rasterizer backend"):
+        get_backend("opengl")
+    if not torch.cuda.is_available():
+        with pytest.raises(InputError, match="not available|runs on"):
+            resolve_backend("gsplat", torch.device("cpu"), torch.float32)
 
 
 @pytest.mark.parametrize(

@@ -10,6 +10,7 @@ import torch
 
 from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.render import Camera, available_backends, render
+from inpaint360gs.render.backends import Splats
 from inpaint360gs.render.torch_backend import rasterize_to_pixels_torch
 
 D = torch.float64
@@ -70,11 +71,15 @@ def random_2d(n, width, height, seed, dtype=D):
     return means2d, conics, opac, channels, radii, depths
 
 
+def splats_of(means2d, conics, opac, channels, radii, depths, W, H):
+    return Splats(means2d, conics, opac, radii, depths, W, H), channels
+
+
 @pytest.mark.parametrize("seed", [0, 1])
 def test_torch_backend_float64_matches_brute_force(seed):
     W, H = 40, 36  # not a multiple of the tile size
     args = random_2d(60, W, H, seed)
-    img, alpha = rasterize_to_pixels_torch(*args, W, H)
+    img, alpha = rasterize_to_pixels_torch(*splats_of(*args, W, H))
     ref_img, ref_alpha = brute_force(*args, W, H)
     assert alpha.max() > 0.9  # the scene really has opaque regions that stop early
     np.testing.assert_allclose(img.numpy(), ref_img, atol=1e-12)
@@ -86,8 +91,8 @@ def test_torch_backend_small_batches_match(seed):
     """Tiles are batched by list length; a tiny batch budget must not change the image."""
     W, H = 40, 36
     args = random_2d(60, W, H, seed)
-    img, alpha = rasterize_to_pixels_torch(*args, W, H)
-    img2, alpha2 = rasterize_to_pixels_torch(*args, W, H, chunk_elems=1)
+    img, alpha = rasterize_to_pixels_torch(*splats_of(*args, W, H))
+    img2, alpha2 = rasterize_to_pixels_torch(*splats_of(*args, W, H), chunk_elems=1)
     assert torch.equal(img, img2) and torch.equal(alpha, alpha2)
 
 
@@ -98,7 +103,7 @@ def test_numba_forward_matches_brute_force():
 
     W, H = 40, 36
     args = random_2d(60, W, H, 3, dtype=torch.float32)
-    img, alpha = rasterize_to_pixels_numba(*args, W, H)
+    img, alpha = rasterize_to_pixels_numba(*splats_of(*args, W, H))
     ref_img, ref_alpha = brute_force(*args, W, H)
     np.testing.assert_allclose(img.numpy(), ref_img, atol=2e-5)
     np.testing.assert_allclose(alpha.numpy(), ref_alpha, atol=2e-5)

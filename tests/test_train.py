@@ -104,7 +104,7 @@ def test_resume_continues_bit_for_bit(tiny_scene, tmp_path):
 
     with pytest.raises(Stop):
         train(scene, cfg, tmp_path / "cut", on_step=stop_at)
-    assert load_checkpoint(tmp_path / "cut" / "checkpoint.pt")["step"] == 25
+    assert load_checkpoint(tmp_path / "cut" / "checkpoint.pt")["loop"]["step"] == 25
     resumed = train(scene, cfg, tmp_path / "cut", resume=True)
     for k in ("means", "log_scales", "quats", "opacity_logits", "sh0", "shN"):
         assert torch.equal(getattr(full.gaussians, k), getattr(resumed.gaussians, k)), k
@@ -126,7 +126,7 @@ def test_nan_in_parameters_stops_with_the_step_and_tensor(tiny_scene, tmp_path):
     with pytest.raises(TrainingDivergedError, match="step 12: parameter 'log_scales'"):
         train(scene, small_config(30, checkpoint_every=5), tmp_path / "run", on_step=poison)
     ck = load_checkpoint(tmp_path / "run" / "checkpoint.pt")
-    assert ck["step"] == 10 and all(torch.isfinite(v).all() for v in ck["params"].values())
+    assert ck["loop"]["step"] == 10 and all(torch.isfinite(v).all() for v in ck["loop"]["params"].values())
     assert not (tmp_path / "run" / "point_cloud.ply").exists()
 
 

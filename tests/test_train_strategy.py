@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
 
 import pytest
 import torch
 
 from inpaint360gs.gs.config import DensifyConfig, TrainConfig
 from inpaint360gs.core.gaussians import Gaussians
-from inpaint360gs.gs.optim import learning_rates, make_optimizers, make_params, means_lr
+from inpaint360gs.gs.optim import PARAM_NAMES, learning_rates, make_optimizers, make_params, means_lr
 from inpaint360gs.core.gaussians import quat_to_rotmat
 from inpaint360gs.gs.strategy import DensifyStrategy
 
@@ -26,7 +27,7 @@ def hand_built(scales, opacities, quats=None):
         sh0=torch.arange(n * 3, dtype=torch.float32).reshape(n, 1, 3) / 10,
         shN=torch.ones(n, 15, 3) * torch.arange(n, dtype=torch.float32)[:, None, None],
     )
-    params = make_params(g)
+    params = make_params(g, PARAM_NAMES)
     opts = make_optimizers(params, learning_rates(TrainConfig(), EXTENT), 1e-15)
     for p in params.values():  # one step so that every Adam has moments to carry along
         p.grad = torch.ones_like(p)
@@ -151,7 +152,8 @@ def test_schedule_of_step_post_backward():
     events = {}
     for step in range(60):
         n0 = params["means"].shape[0]
-        stats = s.step_post_backward(params, opts, st, step, torch.ones(n0, 2), torch.tensor([3] * n0), 64, 48)
+        out = SimpleNamespace(means2d=SimpleNamespace(grad=torch.ones(n0, 2)), radii=torch.tensor([3] * n0))
+        stats = s.step_post_backward(params, opts, st, step, out, SimpleNamespace(width=64, height=48))
         if stats.cloned or stats.reset_opacity:
             events[step] = (stats.cloned, stats.reset_opacity)
     # densify at 15, 20, ..., 45 (> from, multiple of every, < until); reset at 20 and 40

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from inpaint360gs.cli.common import output_file
+
 # table kind -> (title, {metrics.json key: column title}, markdown float format)
 TABLES: dict[str, tuple[str, dict[str, str], str]] = {
     "reconstruction": (
@@ -25,8 +27,8 @@ TABLES: dict[str, tuple[str, dict[str, str], str]] = {
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("kind", choices=sorted(TABLES), help="which table")
     parser.add_argument("metrics", nargs="+", help="per-scene metrics.json files")
-    parser.add_argument("--csv", help="write the table as CSV here")
-    parser.add_argument("--md", help="write the table as Markdown (with provenance) here")
+    parser.add_argument("--csv", type=output_file, help="write the table as CSV here")
+    parser.add_argument("--md", type=output_file, help="write the table as Markdown (with provenance) here")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -3,68 +3,59 @@
 from __future__ import annotations
 
 import argparse
-import os
 
+from inpaint360gs.cli.common import (
+    add_backend_argument,
+    add_threads_argument,
+    existing_dir,
+    nonneg_int,
+    output_dir,
+    positive_float,
+    positive_int,
+    set_threads,
+)
 from inpaint360gs.gs.config import ORIGINAL_ITERATIONS, DensifyConfig, TrainConfig
 
 
 def _schedule_scale(text: str) -> float | str:
     if text == "auto":
         return text
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number or 'auto', got {text!r}") from None
-
-
-def add_threads_argument(parser: argparse.ArgumentParser) -> None:
-    default = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    parser.add_argument("--threads", type=int, default=default, help=f"CPU threads for torch and numba (default: {default}, the usable cores)")
-
-
-def set_threads(n: int) -> None:
-    """Limit torch's and numba's thread pools (both matter on a small shared CPU)."""
-    import torch
-
-    torch.set_num_threads(max(1, n))
-    try:
-        import numba
-
-        numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
-    except ImportError:
-        pass
+    return positive_float(text)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     d = TrainConfig()
-    parser.add_argument("scene", help="scene folder (images/, sparse/0, ...)")
-    parser.add_argument("out", help="output folder (point_cloud.ply, metrics.json, config.yaml, train_log.csv, checkpoint.pt)")
-    parser.add_argument("--iterations", type=int, default=d.iterations, help=f"training steps (default {d.iterations})")
+    parser.add_argument("scene", type=existing_dir, help="scene folder (images/, sparse/0, ...)")
+    parser.add_argument("out", type=output_dir, help="output folder (point_cloud.ply, metrics.json, config.yaml, train_log.csv, checkpoint.pt)")
+    parser.add_argument("--iterations", type=positive_int, default=d.iterations, help=f"training steps (default {d.iterations})")
     parser.add_argument(
         "--schedule-scale", type=_schedule_scale, default=d.schedule_scale,
         help="multiply the step-based schedule (densification window, opacity-reset period, SH steps, "
         f"position-lr decay) by this; 'auto' = iterations / {ORIGINAL_ITERATIONS} (default 1: the original schedule)",
     )  # fmt: skip
     parser.add_argument(
-        "--densify-grad-threshold", type=float, default=d.densify.grad_threshold,
+        "--densify-grad-threshold", type=positive_float, default=d.densify.grad_threshold,
         help=f"densify Gaussians whose mean NDC position gradient exceeds this (default {d.densify.grad_threshold:g}, the original)",
     )  # fmt: skip
     parser.add_argument(
-        "--max-gaussians", type=int, default=d.densify.max_gaussians,
+        "--max-gaussians", type=nonneg_int, default=d.densify.max_gaussians,
         help="cap on the Gaussian count during densification, largest gradients first (default 0: no cap, the original)",
     )  # fmt: skip
-    parser.add_argument("--resize", type=int, default=1, help="image downscale factor (uses images_<R>/ when present)")
-    parser.add_argument("--llffhold", type=int, default=8, help="every N-th non-test view is held out for evaluation (default 8)")
-    parser.add_argument("--backend", default=d.backend, choices=["auto", "torch", "numba", "gsplat"], help="rasterizer backend")
-    parser.add_argument("--seed", type=int, default=d.seed)
-    parser.add_argument("--sh-degree", type=int, default=d.sh_degree, help="highest SH degree (default 3)")
+    parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor (uses images_<R>/ when present)")
+    parser.add_argument("--llffhold", type=nonneg_int, default=8, help="every N-th non-test view is held out for evaluation (default 8; 0: none)")
+    add_backend_argument(parser, d.backend)
+    parser.add_argument("--seed", type=nonneg_int, default=d.seed)
+    parser.add_argument("--sh-degree", type=nonneg_int, default=d.sh_degree, help="highest SH degree (default 3)")
     parser.add_argument("--random-background", action="store_true", help="a random background colour every step")
     parser.add_argument("--white-background", action="store_true", help="render on white instead of black")
-    parser.add_argument("--eval-every", type=int, default=d.eval_every, help="held-out PSNR/SSIM into train_log.csv every N steps (0: end only)")
-    parser.add_argument("--checkpoint-every", type=int, default=d.checkpoint_every, help="steps between checkpoints")
-    parser.add_argument("--log-every", type=int, default=d.log_every, help="steps between train_log.csv rows")
-    parser.add_argument("--resume", action="store_true", help="continue from OUT/checkpoint.pt (same settings)")
-    parser.add_argument("--overwrite", action="store_true", help="replace a previous run in OUT instead of refusing")
+    parser.add_argument("--eval-every", type=nonneg_int, default=d.eval_every, help="held-out PSNR/SSIM into train_log.csv every N steps (0: end only)")
+    parser.add_argument("--checkpoint-every", type=nonneg_int, default=d.checkpoint_every, help="steps between checkpoints (0: only at the end)")
+    parser.add_argument("--log-every", type=positive_int, default=d.log_every, help="steps between train_log.csv rows")
+    parser.add_argument(
+        "--resume", action="store_true",
+        help="continue from OUT/checkpoint.pt (same scene content and settings); with no checkpoint and no previous run in OUT, start afresh",
+    )  # fmt: skip
+    parser.add_argument("--overwrite", action="store_true", help="discard a previous run in OUT and start afresh instead of refusing")
     parser.add_argument("--allow-unregistered", action="store_true", help="warn about, instead of rejecting, images not in sparse/0")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_threads_argument(parser)
@@ -84,7 +75,7 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
         schedule_scale=float(scale),
         checkpoint_every=args.checkpoint_every,
         eval_every=args.eval_every,
-        log_every=max(1, args.log_every),
+        log_every=args.log_every,
         densify=DensifyConfig(grad_threshold=args.densify_grad_threshold, max_gaussians=args.max_gaussians),
     )
 

@@ -16,7 +16,7 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_path
 
 CHECKPOINT_NAME = "checkpoint.pt"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: the optimisation state lives under "loop"
 
 
 def save_checkpoint(path: str | Path, payload: dict[str, Any]) -> None:

@@ -1,34 +1,40 @@
 """Per-parameter Adam optimisers and the edits densification makes to them (3DGS ``GaussianModel``).
 
-Each Gaussian attribute is one ``nn.Parameter`` with its own Adam (its own learning rate), as in
-gsplat. Adding, removing or resetting Gaussians replaces the parameter tensor and edits the Adam
-moments to match: new rows get zero moments, removed rows lose theirs (3DGS
-``cat_tensors_to_optimizer`` / ``_prune_optimizer`` / ``replace_tensor_to_optimizer``).
+Every per-Gaussian tensor of a model is one ``nn.Parameter``; the trainable ones have their own
+Adam (their own learning rate), as in gsplat, the frozen ones (``requires_grad=False``) none.
+Adding, removing or resetting Gaussians replaces every tensor and edits the Adam moments to match:
+new rows get zero moments, removed rows lose theirs (3DGS ``cat_tensors_to_optimizer`` /
+``_prune_optimizer`` / ``replace_tensor_to_optimizer``).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 
 import torch
 
-from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.gs.config import TrainConfig
 
+# The per-Gaussian attributes 3DGS optimises (the object features of paper Sec. 3.3 come on top).
 PARAM_NAMES = ("means", "log_scales", "quats", "opacity_logits", "sh0", "shN")
 
 Params = dict[str, torch.nn.Parameter]
 Optimizers = dict[str, torch.optim.Adam]
 
 
-def make_params(g: Gaussians) -> Params:
-    """Trainable parameters (the optional object features are not part of 3DGS training)."""
-    return {k: torch.nn.Parameter(getattr(g, k).detach().clone().contiguous()) for k in PARAM_NAMES}
+def make_params(g: Gaussians, trainable: Iterable[str]) -> Params:
+    """Every tensor of ``g`` as a parameter, in the model's field order; only ``trainable`` ones require grad."""
+    train = set(trainable)
+    unknown = train - set(g.tensors())
+    if unknown:
+        raise ValueError(f"no such Gaussian tensor(s) to train: {sorted(unknown)}")
+    return {k: torch.nn.Parameter(t.detach().clone().contiguous(), requires_grad=k in train) for k, t in g.tensors().items()}
 
 
 def as_gaussians(params: Params) -> Gaussians:
-    return Gaussians(**{k: params[k] for k in PARAM_NAMES})
+    return Gaussians(**params)
 
 
 def learning_rates(cfg: TrainConfig, scene_extent: float) -> dict[str, float]:
@@ -44,7 +50,8 @@ def learning_rates(cfg: TrainConfig, scene_extent: float) -> dict[str, float]:
 
 
 def make_optimizers(params: Params, lrs: dict[str, float], eps: float) -> Optimizers:
-    return {k: torch.optim.Adam([params[k]], lr=lrs[k], eps=eps) for k in params}
+    """One Adam per trainable parameter named in ``lrs`` (in ``lrs`` order)."""
+    return {k: torch.optim.Adam([params[k]], lr=lr, eps=eps) for k, lr in lrs.items()}
 
 
 def means_lr(step: int, cfg: TrainConfig, scene_extent: float) -> float:
@@ -55,8 +62,10 @@ def means_lr(step: int, cfg: TrainConfig, scene_extent: float) -> float:
     return math.exp(math.log(lr0) * (1 - t) + math.log(lr1) * t)
 
 
-def _swap(opt: torch.optim.Adam, old: torch.nn.Parameter, new: torch.nn.Parameter, edit: Callable[[torch.Tensor], torch.Tensor]) -> None:
+def _swap(opt: torch.optim.Adam | None, old: torch.nn.Parameter, new: torch.nn.Parameter, edit: Callable[[torch.Tensor], torch.Tensor]) -> None:
     """Point ``opt`` at ``new`` and edit the per-row moments with ``edit`` (``step`` is kept)."""
+    if opt is None:
+        return
     state = opt.state.pop(old, None)
     opt.param_groups[0]["params"] = [new]
     if state:
@@ -66,28 +75,26 @@ def _swap(opt: torch.optim.Adam, old: torch.nn.Parameter, new: torch.nn.Paramete
         opt.state[new] = state
 
 
+def _replace(params: Params, optimizers: Optimizers, name: str, value: torch.Tensor, edit: Callable[[torch.Tensor], torch.Tensor]) -> None:
+    old = params[name]
+    p = torch.nn.Parameter(value.contiguous(), requires_grad=old.requires_grad)
+    _swap(optimizers.get(name), old, p, edit)
+    params[name] = p
+
+
 def append_rows(params: Params, optimizers: Optimizers, new: dict[str, torch.Tensor]) -> None:
-    """Append new Gaussians (zero Adam moments for them)."""
-    for k in PARAM_NAMES:
-        old = params[k]
-        add = new[k].detach().to(old.dtype)
-        p = torch.nn.Parameter(torch.cat([old.detach(), add], 0))
-        _swap(optimizers[k], old, p, lambda v, a=add: torch.cat([v, torch.zeros_like(a)], 0))
-        params[k] = p
+    """Append new Gaussians (zero Adam moments for them); ``new`` holds every tensor of ``params``."""
+    for k in list(params):
+        add = new[k].detach().to(params[k].dtype)
+        _replace(params, optimizers, k, torch.cat([params[k].detach(), add], 0), lambda v, a=add: torch.cat([v, torch.zeros_like(a)], 0))
 
 
 def keep_rows(params: Params, optimizers: Optimizers, keep: torch.Tensor) -> None:
     """Keep only the Gaussians where the boolean mask ``keep`` is true."""
-    for k in PARAM_NAMES:
-        old = params[k]
-        p = torch.nn.Parameter(old.detach()[keep].contiguous())
-        _swap(optimizers[k], old, p, lambda v: v[keep].contiguous())
-        params[k] = p
+    for k in list(params):
+        _replace(params, optimizers, k, params[k].detach()[keep], lambda v: v[keep].contiguous())
 
 
 def reset_param(params: Params, optimizers: Optimizers, name: str, value: torch.Tensor) -> None:
     """Replace one parameter's values and zero its Adam moments (3DGS ``reset_opacity``)."""
-    old = params[name]
-    p = torch.nn.Parameter(value.detach().to(old.dtype).contiguous())
-    _swap(optimizers[name], old, p, torch.zeros_like)
-    params[name] = p
+    _replace(params, optimizers, name, value.detach().to(params[name].dtype), torch.zeros_like)

@@ -18,7 +18,7 @@ import torch
 
 from inpaint360gs.core.gaussians import quat_to_rotmat
 from inpaint360gs.gs.config import DensifyConfig
-from inpaint360gs.gs.optim import PARAM_NAMES, Optimizers, Params, append_rows, keep_rows, reset_param
+from inpaint360gs.gs.optim import Optimizers, Params, append_rows, keep_rows, reset_param
 
 
 @dataclass
@@ -31,7 +31,33 @@ class DensifyStats:
     reset_opacity: bool = False
 
 
-class DensifyStrategy:
+class Strategy:
+    """How the set of Gaussians changes during an optimisation (gsplat's strategy objects).
+
+    The base class changes nothing: object-ID distillation (paper Sec. 3.3) trains features of a
+    fixed set of Gaussians. Subclasses edit ``params``/``optimizers``/``state`` in place after each
+    optimiser step.
+    """
+
+    def initialize_state(self, n: int) -> dict[str, torch.Tensor]:
+        return {}
+
+    def step_post_backward(
+        self,
+        params: Params,
+        optimizers: Optimizers,
+        state: dict[str, torch.Tensor],
+        step: int,
+        out,
+        camera,
+        generator: torch.Generator | None = None,
+    ) -> DensifyStats:
+        """Run after the optimiser step of 0-based ``step``; ``out`` is that step's render output
+        (``means2d.grad``, ``radii``) and ``camera`` the view it rendered."""
+        return DensifyStats()
+
+
+class DensifyStrategy(Strategy):
     """The 3DGS clone/split/prune/reset schedule for a scene of radius ``scene_extent``."""
 
     def __init__(self, cfg: DensifyConfig, scene_extent: float):
@@ -58,25 +84,13 @@ class DensifyStrategy:
         r = radii.detach()[visible].to(state["max_radii"].dtype)
         state["max_radii"][visible] = torch.maximum(state["max_radii"][visible], r)
 
-    def step_post_backward(
-        self,
-        params: Params,
-        optimizers: Optimizers,
-        state: dict[str, torch.Tensor],
-        step: int,
-        means2d_grad: torch.Tensor | None,
-        radii: torch.Tensor,
-        width: int,
-        height: int,
-        generator: torch.Generator | None = None,
-    ) -> DensifyStats:
-        """Run after the optimiser step of 0-based ``step``; edits params/optimisers/state in place."""
+    def step_post_backward(self, params, optimizers, state, step, out, camera, generator=None) -> DensifyStats:
         cfg = self.cfg
         stats = DensifyStats()
         if step >= cfg.densify_until:
             return stats
-        if means2d_grad is not None:
-            self.accumulate(state, means2d_grad, radii, width, height)
+        if out.means2d.grad is not None:
+            self.accumulate(state, out.means2d.grad, out.radii, camera.width, camera.height)
         if step > cfg.densify_from and step % cfg.densify_every == 0:
             stats = self.densify_and_prune(params, optimizers, state, prune_big=step > cfg.opacity_reset_every, generator=generator)
         if step > 0 and step % cfg.opacity_reset_every == 0:
@@ -105,17 +119,17 @@ class DensifyStrategy:
         split = high & ~small
 
         # clones: identical copies (3DGS ``densify_and_clone``)
-        new = {k: params[k].detach()[clone] for k in PARAM_NAMES}
+        new = {k: params[k].detach()[clone] for k in params}
         # split children: positions sampled from the parent Gaussian, scales shrunk (``densify_and_split``)
         k_ = cfg.split_children
-        sel = {k: params[k].detach()[split] for k in PARAM_NAMES}
+        sel = {k: params[k].detach()[split] for k in params}
         scales = sel["log_scales"].exp().repeat(k_, 1)
         samples = torch.randn(scales.shape, generator=generator, dtype=scales.dtype) * scales
         rots = quat_to_rotmat(sel["quats"]).repeat(k_, 1, 1)
-        children = {k: sel[k].repeat(k_, *([1] * (sel[k].ndim - 1))) for k in PARAM_NAMES}
+        children = {k: sel[k].repeat(k_, *([1] * (sel[k].ndim - 1))) for k in params}
         children["means"] = torch.bmm(rots, samples[..., None])[..., 0] + children["means"]
         children["log_scales"] = torch.log(scales / (cfg.split_scale_divisor * k_))
-        new = {k: torch.cat([new[k], children[k]], 0) for k in PARAM_NAMES}
+        new = {k: torch.cat([new[k], children[k]], 0) for k in params}
         append_rows(params, optimizers, new)
 
         n_new = new["means"].shape[0]

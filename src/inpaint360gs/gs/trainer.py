@@ -33,20 +33,15 @@ from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.gs.evaluate import evaluate_views
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.gs.loss import photometric_loss
-from inpaint360gs.gs.optim import (
-    PARAM_NAMES,
-    Params,
-    as_gaussians,
-    learning_rates,
-    make_optimizers,
-    make_params,
-    means_lr,
-)
+from inpaint360gs.gs.loop import OptimizationLoop, SceneViews, Target
+from inpaint360gs.gs.optim import Params, learning_rates, means_lr
 from inpaint360gs.gs.strategy import DensifyStrategy
 from inpaint360gs.io.atomic import atomic_path, write_text
-from inpaint360gs.io.images import to_float
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
+
+# every file a run writes into its folder
+RUN_FILES = (CHECKPOINT_NAME, "point_cloud.ply", "metrics.json", "train_log.csv", "config.yaml")
 
 LOG_FIELDS = [
     "step", "loss", "l1", "ssim", "psnr", "num_gaussians", "sh_degree", "means_lr",
@@ -76,14 +71,6 @@ def peak_rss_mb() -> float:
     return max(hwm, psutil.Process().memory_info().rss / 2**20)
 
 
-def _check_finite(step: int, params: Params) -> None:
-    for k in PARAM_NAMES:
-        t = params[k].detach()
-        if not torch.isfinite(t).all():
-            bad = int((~torch.isfinite(t)).sum())
-            raise TrainingDivergedError(f"step {step}: parameter '{k}' has {bad} non-finite value(s)")
-
-
 class _Window:
     """Running sums of the logged quantities between two log rows."""
 
@@ -99,7 +86,7 @@ class _Window:
 
 
 class Trainer:
-    """One training run in ``out_dir``; call :meth:`run`."""
+    """One 3DGS training run in ``out_dir`` on the shared :class:`OptimizationLoop`; call :meth:`run`."""
 
     def __init__(
         self,
@@ -118,31 +105,54 @@ class Trainer:
         self.progress = progress
         self.on_step = on_step
         self.extent = scene.extent
-        self.strategy = DensifyStrategy(self.cfg.densify, self.extent)
         self.views = scene.train_views
-        # training pixels stay in their stored integer type until used
-        self.images = [torch.from_numpy(scene.load_image_raw(v)) for v in self.views]
+        self.source = SceneViews(scene, self.views)
+        for v in scene.holdout_views:  # every input the run reads is decoded now, before any training step
+            scene.load_image_raw(v)
+        self.fingerprint = scene.fingerprint()
         self.background = torch.tensor(self.cfg.background, dtype=torch.float32)
 
-    # --- state --------------------------------------------------------------------------------
+    # --- the 3DGS recipe as the loop's injected parts ---------------------------------------------
+    def _render(self, g: Gaussians, target: Target, step: int, gen: torch.Generator):
+        from inpaint360gs.render.api import render
+
+        cfg = self.cfg
+        sh_degree = min(step // cfg.sh_degree_interval, cfg.sh_degree)  # one SH band more every interval
+        bg = torch.rand(3, generator=gen) if cfg.random_background else self.background
+        return render(g, target.camera, sh_degree=sh_degree, background=bg, backend=cfg.backend)
+
+    def _loss(self, out, target: Target, step: int):
+        loss, l1, s = photometric_loss(out.color, target.data["image"], self.cfg.ssim_lambda)
+        return loss, {"l1": l1.item(), "ssim": s.item()}
+
     def _fresh_state(self) -> None:
         cfg = self.cfg
-        torch.manual_seed(cfg.seed)
-        self.gen = torch.Generator().manual_seed(cfg.seed)
-        self.params = make_params(init_gaussians(self.scene, cfg))
-        self.optimizers = make_optimizers(self.params, learning_rates(cfg, self.extent), cfg.adam_eps)
-        self.state = self.strategy.initialize_state(self.params["means"].shape[0])
-        self.step = 0
-        self.order = torch.zeros(0, dtype=torch.long)
-        self.order_pos = 0
+        lrs: dict[str, float | Callable[[int], float]] = dict(learning_rates(cfg, self.extent))
+        lrs["means"] = lambda step: means_lr(step, cfg, self.extent)  # exponential decay (3DGS)
+        self.loop = OptimizationLoop(
+            init_gaussians(self.scene, cfg),
+            train=lrs,
+            views=self.source,
+            render_fn=self._render,
+            loss_fn=self._loss,
+            strategy=DensifyStrategy(cfg.densify, self.extent),
+            seed=cfg.seed,
+            adam_eps=cfg.adam_eps,
+            on_step=self.on_step,
+        )
         self.log_rows: list[dict] = []
         self.window = _Window()
         self.elapsed_before = 0.0
+
+    @property
+    def step(self) -> int:
+        return self.loop.step_index
 
     def _identity(self) -> dict:
         return {
             "config": self.user_cfg.to_dict(),
             "scene": self.scene.name,
+            "scene_content_sha256": self.fingerprint,
             "resize": self.scene.resize,
             "train_views": [v.name for v in self.views],
         }
@@ -150,14 +160,7 @@ class Trainer:
     def _payload(self) -> dict:
         return {
             "identity": self._identity(),
-            "step": self.step,
-            "params": {k: p.detach().clone() for k, p in self.params.items()},
-            "optimizers": {k: o.state_dict() for k, o in self.optimizers.items()},
-            "strategy": {k: v.clone() for k, v in self.state.items()},
-            "generator": self.gen.get_state(),
-            "torch_rng": torch.get_rng_state(),
-            "order": self.order.clone(),
-            "order_pos": self.order_pos,
+            "loop": self.loop.state_dict(),
             "log_rows": self.log_rows,
             "window": self.window.sums,
             "elapsed_s": self.elapsed_before + (time.perf_counter() - self.t0),
@@ -170,62 +173,24 @@ class Trainer:
             if "config" in diff:
                 a, b = mine["config"], theirs["config"]
                 diff = [f"config.{k}" for k in a if a[k] != b.get(k)] + [d for d in diff if d != "config"]
-            raise InputError(f"checkpoint was made with different settings ({', '.join(diff)}); start afresh or match them", self.out / CHECKPOINT_NAME)
-        self.step = int(data["step"])
-        self.params = {k: torch.nn.Parameter(data["params"][k].clone()) for k in PARAM_NAMES}
-        self.optimizers = make_optimizers(self.params, learning_rates(self.cfg, self.extent), self.cfg.adam_eps)
-        for k, o in self.optimizers.items():
-            o.load_state_dict(data["optimizers"][k])
-        self.state = {k: v.clone() for k, v in data["strategy"].items()}
-        self.gen = torch.Generator()
-        self.gen.set_state(data["generator"])
-        torch.set_rng_state(data["torch_rng"])
-        self.order = data["order"].clone()
-        self.order_pos = int(data["order_pos"])
+            if "scene_content_sha256" in diff:
+                raise InputError("checkpoint was made on a scene with different content (sparse model or images differ); pass --overwrite to start afresh", self.out / CHECKPOINT_NAME)
+            raise InputError(f"checkpoint was made with different settings ({', '.join(diff)}); start afresh (--overwrite) or match them", self.out / CHECKPOINT_NAME)
+        self.loop.load_state_dict(data["loop"])
         self.log_rows = list(data["log_rows"])
         self.window = _Window(data["window"])
         self.elapsed_before = float(data["elapsed_s"])
 
-    # --- one step -----------------------------------------------------------------------------
-    def _next_view(self) -> int:
-        """Random order without replacement, reshuffled each epoch (3DGS ``viewpoint_stack``)."""
-        if self.order_pos >= len(self.order):
-            self.order = torch.randperm(len(self.views), generator=self.gen)
-            self.order_pos = 0
-        i = int(self.order[self.order_pos])
-        self.order_pos += 1
-        return i
-
-    def _train_step(self, render) -> dict:
-        cfg, step = self.cfg, self.step
-        sh_degree = min(step // cfg.sh_degree_interval, cfg.sh_degree)
-        lr = means_lr(step, cfg, self.extent)
-        for group in self.optimizers["means"].param_groups:
-            group["lr"] = lr
-        i = self._next_view()
-        view, gt = self.views[i], to_float(self.images[i])
-        bg = torch.rand(3, generator=self.gen) if cfg.random_background else self.background
-        out = render(as_gaussians(self.params), view.camera, sh_degree=sh_degree, background=bg, backend=cfg.backend)
-        loss, l1, s = photometric_loss(out.color, gt, cfg.ssim_lambda)
-        if not torch.isfinite(loss):
-            raise TrainingDivergedError(f"step {step}: loss is {loss.item()} (rendering view {view.name})")
-        loss.backward()
-        for o in self.optimizers.values():
-            o.step()
-            o.zero_grad(set_to_none=True)
-        grad2d = out.means2d.grad if out.means2d is not None else None
-        stats = self.strategy.step_post_backward(
-            self.params, self.optimizers, self.state, step, grad2d, out.radii, view.camera.width, view.camera.height, generator=self.gen
-        )
-        if self.on_step is not None:
-            self.on_step(step, self.params)
-        _check_finite(step, self.params)
+    def _train_step(self) -> dict:
+        cfg = self.cfg
+        res = self.loop.step()
         with torch.no_grad():
-            mse = ((out.color.detach().clamp(0, 1) - gt) ** 2).mean().item()
+            mse = ((res.out.color.detach().clamp(0, 1) - res.target.data["image"]) ** 2).mean().item()
         return {
-            "loss": loss.item(), "l1": l1.item(), "ssim": s.item(),
-            "psnr": -10.0 * math.log10(max(mse, 1e-12)), "sh_degree": sh_degree, "means_lr": lr,
-            "cloned": stats.cloned, "split": stats.split, "pruned": stats.pruned,
+            "loss": res.loss, "l1": res.logs["l1"], "ssim": res.logs["ssim"],
+            "psnr": -10.0 * math.log10(max(mse, 1e-12)),
+            "sh_degree": min(res.step // cfg.sh_degree_interval, cfg.sh_degree), "means_lr": means_lr(res.step, cfg, self.extent),
+            "cloned": res.stats.cloned, "split": res.stats.split, "pruned": res.stats.pruned,
         }  # fmt: skip
 
     # --- outputs ------------------------------------------------------------------------------
@@ -241,25 +206,55 @@ class Trainer:
         self._write_log()
 
     def _evaluate(self) -> dict:
-        g = as_gaussians(self.params).map(lambda t: t.detach())
+        g = self.loop.gaussians().map(lambda t: t.detach())
         return evaluate_views(g, self.scene, self.scene.holdout_views, sh_degree=self.cfg.sh_degree, background=self.background, backend=self.cfg.backend)
+
+    def _prepare_folder(self, resume: bool, overwrite: bool) -> dict | None:
+        """Decide what happens to ``out`` before any work; returns the checkpoint to resume from.
+
+        resume + checkpoint: continue (same scene content and settings, else an error);
+        resume without checkpoint: start afresh, unless a finished run's outputs are there (an error:
+        resuming must never silently replace a run); no resume: refuse a previous run unless
+        ``overwrite``, which deletes it.
+        """
+        ckpt = self.out / CHECKPOINT_NAME
+        previous = [self.out / n for n in RUN_FILES if (self.out / n).is_file()]
+        if resume and ckpt.is_file():
+            return load_checkpoint(ckpt)
+        if resume and previous:
+            raise InputError(
+                f"--resume: no {CHECKPOINT_NAME} to continue from, but the folder holds a previous run's "
+                f"{previous[0].name}; pass --overwrite to replace that run, or choose a new folder",
+                self.out,
+            )
+        if previous and not overwrite:
+            raise InputError("output folder holds a previous run; pass --resume to continue it, --overwrite to replace it, or choose a new folder", self.out)
+        for p in previous:
+            p.unlink()
+        return None
 
     def run(self, *, resume: bool = False, overwrite: bool = False) -> TrainResult:
         from tqdm import tqdm
 
-        from inpaint360gs.render.api import render
-
-        self.out.mkdir(parents=True, exist_ok=True)
-        ckpt = self.out / CHECKPOINT_NAME
         self.t0 = time.perf_counter()
         self._fresh_state()
-        if overwrite and not resume:  # a fresh run replaces the previous one's files
-            for name in (CHECKPOINT_NAME, "point_cloud.ply", "metrics.json", "train_log.csv"):
-                (self.out / name).unlink(missing_ok=True)
-        if resume and ckpt.is_file():
-            self._restore(load_checkpoint(ckpt))
-        elif not resume and (ckpt.is_file() or (self.out / "point_cloud.ply").is_file()):
-            raise InputError("output folder holds a previous run; pass --resume to continue it, --overwrite to replace it, or choose a new folder", self.out)
+        data = self._prepare_folder(resume, overwrite)
+        if data is not None:
+            self._restore(data)
+        created = not self.out.exists()
+        self.out.mkdir(parents=True, exist_ok=True)
+        try:
+            return self._run(tqdm)
+        except BaseException:
+            # a failed or interrupted run leaves what resumes it (checkpoint + its log and config), or nothing
+            if not (self.out / CHECKPOINT_NAME).is_file():
+                for n in RUN_FILES:
+                    (self.out / n).unlink(missing_ok=True)
+                if created and not any(self.out.iterdir()):
+                    self.out.rmdir()
+            raise
+
+    def _run(self, tqdm) -> TrainResult:
         cfg = self.cfg
         write_text(
             self.out / "config.yaml",
@@ -268,10 +263,9 @@ class Trainer:
         bar = tqdm(total=cfg.iterations, initial=self.step, disable=not self.progress, desc=f"3DGS {self.scene.name}", dynamic_ncols=True)
         try:
             while self.step < cfg.iterations:
-                rec = self._train_step(render)
-                self.step += 1
+                rec = self._train_step()
                 self.window.add(n=1, **{k: rec[k] for k in ("loss", "l1", "ssim", "psnr", "cloned", "split", "pruned")})
-                n = self.params["means"].shape[0]
+                n = len(self.loop.params["means"])
                 evaluated = cfg.eval_every > 0 and self.step % cfg.eval_every == 0 and self.step < cfg.iterations
                 if self.step % cfg.log_every == 0 or self.step == cfg.iterations or evaluated:
                     row = {k: self.window.mean(k) for k in ("loss", "l1", "ssim", "psnr")}
@@ -289,16 +283,17 @@ class Trainer:
                 if cfg.checkpoint_every > 0 and self.step % cfg.checkpoint_every == 0 and self.step < cfg.iterations:
                     self._checkpoint()
         except TrainingDivergedError:
-            self._write_log()  # the rows up to the failure; the last good checkpoint stays
+            if (self.out / CHECKPOINT_NAME).is_file():
+                self._write_log()  # the rows up to the failure, beside the last good checkpoint
             raise
         finally:
             bar.close()
         train_s = self.elapsed_before + time.perf_counter() - self.t0
         self._checkpoint()
-        model = as_gaussians(self.params).map(lambda t: t.detach().clone())
-        write_ply(self.out / "point_cloud.ply", model)
+        model = self.loop.detached()
         t_eval = time.perf_counter()
-        ev = self._evaluate()
+        ev = self._evaluate()  # before the model is written: a failure here leaves no PLY without metrics
+        write_ply(self.out / "point_cloud.ply", model)
         metrics = {
             "scene": self.scene.name,
             "psnr": ev["psnr"],

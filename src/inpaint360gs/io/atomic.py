@@ -1,16 +1,66 @@
-"""Atomic outputs: write to a temporary name beside the target, then rename (DESIGN.md §7).
+"""Atomic outputs: write to a temporary name beside the target, then rename (docs/architecture.md,
+"Reliability").
 
-A crash or an error half-way never leaves a half-written file or folder under the final name.
+A crash or an error half-way never leaves a half-written file or folder under the final name, and
+an exception (including ``KeyboardInterrupt`` and the CLI's SIGTERM exception) removes the
+temporary. Temporaries are named ``.<target name>.<pid>.<random>.tmp[suffix]``; a process that was
+killed outright (SIGKILL, power loss) cannot clean up, so every writer first removes the
+temporaries of the same target whose process no longer exists. Outputs get the modes the user's
+umask asks for (``tempfile`` creates them private, 0600 / 0700).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _publish_mode(path: Path, folder: bool) -> None:
+    """Give a finished temporary the mode a plain ``open``/``mkdir`` would have given it."""
+    os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # exists, owned by someone else
+        return True
+    return True
+
+
+def remove_stale_temporaries(target: str | Path) -> list[Path]:
+    """Delete temporaries of ``target`` left by processes that no longer run; returns what was removed."""
+    target = Path(target)
+    folder = target.parent
+    if not folder.is_dir():
+        return []
+    pattern = re.compile(rf"^\.{re.escape(target.name)}\.(\d+)\.[^.]+\.tmp")
+    removed = []
+    for p in folder.iterdir():
+        m = pattern.match(p.name)
+        if m and not _pid_alive(int(m.group(1))):
+            shutil.rmtree(p, ignore_errors=True) if p.is_dir() and not p.is_symlink() else p.unlink(missing_ok=True)
+            removed.append(p)
+    old = folder / f".{target.name}.old"  # left when a replace was killed between its two renames
+    if old.exists() and target.exists():
+        shutil.rmtree(old, ignore_errors=True)
+        removed.append(old)
+    return removed
 
 
 @contextlib.contextmanager
@@ -22,11 +72,13 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     """
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}", dir=target.parent)
+    remove_stale_temporaries(target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=f".tmp{target.suffix}", dir=target.parent)
     os.close(fd)
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        _publish_mode(tmp_path, folder=False)
         os.replace(tmp_path, target)
     finally:
         if tmp_path.exists():
@@ -42,12 +94,16 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     from inpaint360gs.core.errors import InputError
 
     target = Path(target)
+    if target.exists() and not target.is_dir():
+        raise InputError("output path exists and is not a folder", target)
     if target.exists() and any(target.iterdir()) and not overwrite:
         raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", target)
     target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    remove_stale_temporaries(target)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent))
     try:
         yield tmp
+        _publish_mode(tmp, folder=True)  # what it holds was created with ordinary (umask) modes
         if target.exists():
             old = target.with_name(f".{target.name}.old")
             if old.exists():

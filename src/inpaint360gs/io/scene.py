@@ -15,6 +15,7 @@ but :meth:`Scene.load_image` refuses it unless called with ``allow_test=True`` (
 
 from __future__ import annotations
 
+import hashlib
 import json
 import warnings
 from collections.abc import Sequence
@@ -130,6 +131,19 @@ class Scene:
         cam = view.camera
         m = resize_mask(m, cam.width, cam.height)
         return binary_mask(m) if kind == layout.UNSEEN_MASK_DIR else m
+
+    def fingerprint(self) -> str:
+        """sha256 over the content a method stage may read: the sparse model's files and the pixels
+        files of every non-test view (names and bytes). Identifies a scene by content, not by name."""
+        h = hashlib.sha256()
+        sparse = self.root / layout.SPARSE_DIR
+        for p in sorted(sparse.iterdir()):
+            if p.is_file():
+                h.update(p.name.encode() + b"\0" + p.read_bytes())
+        for v in self.views:
+            if not v.is_test:
+                h.update(v.name.encode() + b"\0" + v.image_path.read_bytes())
+        return h.hexdigest()
 
     @property
     def extent(self) -> float:

@@ -8,20 +8,16 @@ projection and SH maths in its own fused kernels (:mod:`.numba_projection`), tes
 
 from __future__ import annotations
 
-import importlib.util
 from dataclasses import dataclass
-from functools import cache
 
 import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.core.camera import Camera
+from inpaint360gs.render.backends import Splats, available_backends, get_backend, resolve_backend
 from inpaint360gs.render.projection import project_gaussians
 from inpaint360gs.render.sh import sh_to_rgb
-
-BACKENDS = ("torch", "numba", "gsplat")
-
 
 @dataclass
 class RenderOutput:
@@ -32,41 +28,6 @@ class RenderOutput:
     means2d: torch.Tensor  # (N, 2) projected centres in pixels; grad retained for densification
     radii: torch.Tensor  # (N,) int pixel radius (3 sigma), 0 = culled
     depths: torch.Tensor  # (N,) camera-space z of each centre
-
-
-@cache
-def _importable(name: str) -> bool:
-    return importlib.util.find_spec(name) is not None
-
-
-def available_backends() -> list[str]:
-    """Backends usable in this process: "torch" always, "numba" when numba imports, "gsplat" with CUDA + gsplat."""
-    out = ["torch"]
-    if _importable("numba"):
-        out.append("numba")
-    if _importable("gsplat") and torch.cuda.is_available():
-        out.append("gsplat")
-    return out
-
-
-def resolve_backend(backend: str, device: torch.device, dtype: torch.dtype) -> str:
-    """The backend "auto" means for tensors on ``device``: gsplat on CUDA, numba for float32 on CPU, else torch."""
-    avail = available_backends()
-    if backend == "auto":
-        if device.type == "cuda" and "gsplat" in avail and dtype == torch.float32:
-            return "gsplat"
-        if device.type == "cpu" and "numba" in avail and dtype == torch.float32:
-            return "numba"
-        return "torch"
-    if backend not in BACKENDS:
-        raise InputError(f"unknown rasterizer backend {backend!r}; choose one of auto, {', '.join(BACKENDS)}", "backend")
-    if backend not in avail:
-        raise InputError(f"rasterizer backend {backend!r} is not available here (available: {', '.join(avail)})", "backend")
-    if backend == "numba" and device.type != "cpu":
-        raise InputError(f"the numba backend runs on CPU tensors, got {device}", "backend")
-    if backend == "gsplat" and device.type != "cuda":
-        raise InputError(f"the gsplat backend runs on CUDA tensors, got {device}", "backend")
-    return backend
 
 
 def _check_inputs(g: Gaussians, camera: Camera, background: torch.Tensor | None, with_features: bool) -> None:
@@ -94,31 +55,10 @@ def _check_inputs(g: Gaussians, camera: Camera, background: torch.Tensor | None,
         raise InputError(f"background must have shape (3,), got {tuple(background.shape)}", "background")
 
 
-def rasterize_to_pixels(
-    means2d: torch.Tensor,
-    conics: torch.Tensor,
-    opacities: torch.Tensor,
-    channels: torch.Tensor,
-    radii: torch.Tensor,
-    depths: torch.Tensor,
-    width: int,
-    height: int,
-    backend: str = "torch",
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Composite (N, C) channels of projected Gaussians -> ((H, W, C), (H, W) alpha) with one backend's kernels.
-
-    Channels are composited front to back in depth order with the CUDA rules of :mod:`.tiles`;
-    ``radii == 0`` marks culled Gaussians. ``backend`` is "torch", "numba" or "gsplat" (not "auto").
-    """
-    if backend == "numba":
-        from inpaint360gs.render.numba_backend import rasterize_to_pixels_numba as fn
-    elif backend == "torch":
-        from inpaint360gs.render.torch_backend import rasterize_to_pixels_torch as fn
-    elif backend == "gsplat":
-        from inpaint360gs.render.gsplat_backend import rasterize_to_pixels_gsplat as fn
-    else:
-        raise InputError(f"rasterize_to_pixels has no backend {backend!r} (torch, numba, gsplat)", "backend")
-    return fn(means2d, conics, opacities, channels, radii, depths, width, height)
+def rasterize_to_pixels(splats: Splats, channels: torch.Tensor, backend: str = "torch") -> tuple[torch.Tensor, torch.Tensor]:
+    """Composite (N, C) channels of projected Gaussians -> ((H, W, C), (H, W) alpha) with one backend's
+    kernels (:meth:`RasterizerBackend.rasterize`); ``backend`` names one (not "auto")."""
+    return get_backend(backend).rasterize(splats, channels)
 
 
 def render(
@@ -140,17 +80,14 @@ def render(
     if not 0 <= degree <= g.sh_degree:
         raise InputError(f"sh_degree {degree} outside 0..{g.sh_degree} (what the coefficients hold)", "sh_degree")
     dev, dt = g.means.device, g.means.dtype
-    name = resolve_backend(backend, dev, dt)
+    rasterizer = resolve_backend(backend, dev, dt)
     bg = torch.zeros(3, device=dev, dtype=dt) if background is None else background.to(device=dev, dtype=dt)
     cam = camera.to(device=dev, dtype=dt)
 
     sh = torch.cat([g.sh0, g.shN[:, : (degree + 1) ** 2 - 1]], dim=1)
-    if name == "numba":  # the same maths as below in one fused CPU kernel pair (35 ms -> 2 ms at 30k Gaussians)
-        from inpaint360gs.render.numba_projection import project_and_shade_numba
-
-        means2d, conics, depths, radii, rgb = project_and_shade_numba(
-            g.means, g.quats, g.log_scales, sh, cam, degree, near=near, far=far, eps2d=eps2d
-        )
+    fused = rasterizer.project_and_shade(g, sh, cam, degree, near=near, far=far, eps2d=eps2d)
+    if fused is not None:
+        means2d, conics, depths, radii, rgb = fused
     else:
         proj = project_gaussians(g.means, g.quats, g.log_scales, cam, near=near, far=far, eps2d=eps2d)
         means2d, conics, depths, radii = proj.means2d, proj.conics, proj.depths, proj.radii
@@ -159,9 +96,8 @@ def render(
     if with_features:
         parts.append(g.features.to(dt))
     channels = torch.cat(parts, dim=-1)  # [rgb, z, features]: depth (Eq. 5) and features (Eq. 2) composite like colour
-    image, alpha = rasterize_to_pixels(
-        means2d, conics, torch.sigmoid(g.opacity_logits), channels, radii, depths, cam.width, cam.height, backend=name
-    )
+    splats = Splats(means2d, conics, torch.sigmoid(g.opacity_logits), radii, depths, cam.width, cam.height)
+    image, alpha = rasterizer.rasterize(splats, channels)
     out = RenderOutput(
         color=image[..., :3] + (1.0 - alpha)[..., None] * bg,
         depth=image[..., 3],

@@ -9,8 +9,13 @@ Handles both radius layouts of gsplat's ``isect_tiles`` ((C, N) up to 1.4, (C, N
 
 from __future__ import annotations
 
+import importlib.util
+
+import importlib.util
+
 import torch
 
+from inpaint360gs.render.backends import RasterizerBackend, Splats
 from inpaint360gs.render.tiles import TILE, tile_grid
 
 
@@ -22,19 +27,12 @@ def _isect_tiles(gsplat, means2d, radii, depths, tiles_x, tiles_y):
         return gsplat.isect_tiles(means2d[None], r, depths[None], TILE, tiles_x, tiles_y)
 
 
-def rasterize_to_pixels_gsplat(
-    means2d: torch.Tensor,
-    conics: torch.Tensor,
-    opacities: torch.Tensor,
-    channels: torch.Tensor,
-    radii: torch.Tensor,
-    depths: torch.Tensor,
-    width: int,
-    height: int,
-) -> tuple[torch.Tensor, torch.Tensor]:
+def rasterize_to_pixels_gsplat(splats: Splats, channels: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Composite (N, C) channels with gsplat's CUDA kernels -> ((H, W, C), (H, W) alpha)."""
     import gsplat
 
+    means2d, conics, opacities, radii, depths = splats.means2d, splats.conics, splats.opacities, splats.radii, splats.depths
+    width, height = splats.width, splats.height
     tiles_x, tiles_y = tile_grid(width, height)
     _, isect_ids, flatten_ids = _isect_tiles(gsplat, means2d.detach(), radii, depths.detach(), tiles_x, tiles_y)
     offsets = gsplat.isect_offset_encode(isect_ids, 1, tiles_x, tiles_y)
@@ -43,3 +41,20 @@ def rasterize_to_pixels_gsplat(
         width, height, TILE, offsets, flatten_ids,
     )  # fmt: skip
     return img[0], alpha[0, ..., 0]
+
+
+class GsplatBackend(RasterizerBackend):
+    """gsplat's CUDA kernels (needs a CUDA build of torch and the ``gpu`` extra)."""
+
+    name = "gsplat"
+    priority = 20
+    device_type = "cuda"
+
+    def available(self) -> bool:
+        return importlib.util.find_spec("gsplat") is not None and torch.cuda.is_available()
+
+    def rasterize(self, splats, channels):
+        return rasterize_to_pixels_gsplat(splats, channels)
+
+
+BACKEND = GsplatBackend()

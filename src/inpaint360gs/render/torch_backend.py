@@ -10,24 +10,17 @@ from __future__ import annotations
 
 import torch
 
+from inpaint360gs.render.backends import RasterizerBackend, Splats
 from inpaint360gs.render.tiles import ALPHA_MAX, ALPHA_MIN, T_MIN, TILE, bin_gaussians, tile_grid
 
 # elements (tiles x 256 pixels x Gaussians) per batch: bounds the forward's temporaries (~16 MB each at float32)
 DEFAULT_CHUNK_ELEMS = 1 << 22
 
 
-def rasterize_to_pixels_torch(
-    means2d: torch.Tensor,
-    conics: torch.Tensor,
-    opacities: torch.Tensor,
-    channels: torch.Tensor,
-    radii: torch.Tensor,
-    depths: torch.Tensor,
-    width: int,
-    height: int,
-    chunk_elems: int = DEFAULT_CHUNK_ELEMS,
-) -> tuple[torch.Tensor, torch.Tensor]:
+def rasterize_to_pixels_torch(splats: Splats, channels: torch.Tensor, chunk_elems: int = DEFAULT_CHUNK_ELEMS) -> tuple[torch.Tensor, torch.Tensor]:
     """Alpha-composite per-Gaussian ``channels`` (N, C) front to back -> ((H, W, C) sums of c*alpha*T, (H, W) alpha)."""
+    means2d, conics, opacities, radii, depths = splats.means2d, splats.conics, splats.opacities, splats.radii, splats.depths
+    width, height = splats.width, splats.height
     dev, dt = means2d.device, means2d.dtype
     C = channels.shape[1]
     tiles_x, tiles_y = tile_grid(width, height)
@@ -90,3 +83,21 @@ def rasterize_to_pixels_torch(
     image = vals.reshape(tiles_y, tiles_x, TILE, TILE, C).permute(0, 2, 1, 3, 4).reshape(tiles_y * TILE, tiles_x * TILE, C)
     alpha_img = alph.reshape(tiles_y, tiles_x, TILE, TILE).permute(0, 2, 1, 3).reshape(tiles_y * TILE, tiles_x * TILE)
     return image[:height, :width], alpha_img[:height, :width]
+
+
+class TorchBackend(RasterizerBackend):
+    """Vectorised tiles in plain torch: any device and dtype, autograd backward; the float64 reference."""
+
+    name = "torch"
+    priority = 0
+    device_type = "any"
+    auto_dtypes = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
+
+    def available(self) -> bool:
+        return True
+
+    def rasterize(self, splats, channels):
+        return rasterize_to_pixels_torch(splats, channels)
+
+
+BACKEND = TorchBackend()

@@ -1,0 +1,230 @@
+"""The CLI layer every stage shares (``inpaint360gs`` and ``inpaint360gs-dataset``).
+
+* One dispatcher (:func:`run_stages`): imports only the stage that runs, turns every failure into one
+  line on stderr and a documented exit code (:mod:`inpaint360gs.core.errors`): 0 success, 1 internal
+  error, 2 bad input or usage, 3 training diverged, 130 SIGINT, 143 SIGTERM. Set
+  ``INPAINT360GS_DEBUG=1`` to get the traceback of an internal error.
+* Clean interruptions: SIGTERM becomes a :class:`~inpaint360gs.core.errors.Terminated` exception in
+  the main thread, so the atomic writers' ``finally`` blocks remove their temporaries (pycolmap's
+  own SIGTERM handler, which prints a C++ stack dump, is replaced).
+* Argument types that check values before any work starts: finite numbers, ranges, existing inputs,
+  writable outputs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import math
+import os
+import signal
+import sys
+import warnings
+from collections.abc import Callable
+from pathlib import Path
+
+from inpaint360gs.core.errors import (
+    EXIT_DIVERGED,
+    EXIT_INPUT,
+    EXIT_INTERNAL,
+    EXIT_SIGINT,
+    EXIT_SIGTERM,
+    InputError,
+    Terminated,
+    TrainingDivergedError,
+)
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with one-line usage errors: ``prog: error: message (see --help)``, exit 2."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+def install_signal_handlers() -> None:
+    """SIGTERM -> :class:`Terminated`, SIGINT -> ``KeyboardInterrupt`` (after pycolmap's import, which
+    installs glog's failure handler for SIGTERM)."""
+    try:
+        import pycolmap  # noqa: F401  (its import installs the handler we replace)
+    except ImportError:
+        pass
+    signal.signal(signal.SIGTERM, _on_sigterm)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _one_line_warnings(prog: str) -> None:
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"{prog}: warning: {message}", file=sys.stderr if file is None else file)
+
+    warnings.showwarning = show
+
+
+def _first_line(e: BaseException) -> str:
+    text = str(e).strip()
+    return text.splitlines()[0] if text else type(e).__name__
+
+
+def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | None, description: str) -> int:
+    """Parse ``argv`` for one of ``stages`` (name -> (module, help)) and run it; returns the exit code."""
+    parser = OneLineParser(prog=prog, description=description)
+    sub = parser.add_subparsers(dest="stage", metavar="STAGE", required=True, parser_class=OneLineParser)
+    argv = sys.argv[1:] if argv is None else argv
+    wanted = argv[0] if argv and not argv[0].startswith("-") else None
+    for name, (module, help_text) in stages.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        if name == wanted:  # import only the module that runs
+            importlib.import_module(module).add_arguments(p)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # --help (0) or a usage error (2, already printed on one line)
+        return int(e.code or 0)
+    where = f"{prog} {args.stage}"
+    old_show = warnings.showwarning
+    _one_line_warnings(where)
+    install_signal_handlers()
+    try:
+        return int(importlib.import_module(stages[args.stage][0]).run(args) or 0)
+    except InputError as e:
+        print(f"{where}: error: {e}", file=sys.stderr)
+        return EXIT_INPUT
+    except TrainingDivergedError as e:
+        print(f"{where}: training diverged: {e}", file=sys.stderr)
+        return EXIT_DIVERGED
+    except KeyboardInterrupt:
+        print(f"{where}: interrupted (partial outputs removed; rerun to continue)", file=sys.stderr)
+        return EXIT_SIGINT
+    except Terminated:
+        print(f"{where}: terminated (partial outputs removed; rerun to continue)", file=sys.stderr)
+        return EXIT_SIGTERM
+    except OSError as e:  # disk full, permission denied, a path component that is a file, ...
+        name = e.filename if e.filename is not None else ""
+        print(f"{where}: error: {name}{': ' if name else ''}{e.strerror or _first_line(e)}", file=sys.stderr)
+        return EXIT_INPUT
+    except MemoryError:
+        print(f"{where}: error: out of memory (try smaller images, --resize, or fewer Gaussians)", file=sys.stderr)
+        return EXIT_INPUT
+    except Exception as e:  # a bug: still one line, the traceback on request
+        if os.environ.get("INPAINT360GS_DEBUG"):
+            raise
+        print(f"{where}: internal error: {type(e).__name__}: {_first_line(e)} (set INPAINT360GS_DEBUG=1 for the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+    finally:
+        warnings.showwarning = old_show
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
+# --- argument types (argparse calls them; ArgumentTypeError becomes a one-line usage error) --------
+
+
+def _number(kind: type, text: str):
+    try:
+        v = kind(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, got {text!r}") from None
+    if kind is float and not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return v
+
+
+def number(kind: type = float, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False) -> Callable[[str], float | int]:
+    """Argument type: a finite ``kind`` (int or float) within [lo, hi] (``lo_open``: lo excluded)."""
+
+    def parse(text: str):
+        v = _number(kind, text)
+        if lo is not None and (v < lo or (lo_open and v == lo)):
+            raise argparse.ArgumentTypeError(f"must be {'>' if lo_open else '>='} {lo:g}, got {text}")
+        if hi is not None and v > hi:
+            raise argparse.ArgumentTypeError(f"must be <= {hi:g}, got {text}")
+        return v
+
+    return parse
+
+
+positive_int = number(int, lo=1)
+nonneg_int = number(int, lo=0)
+positive_float = number(float, lo=0.0, lo_open=True)
+nonneg_float = number(float, lo=0.0)
+fraction = number(float, lo=0.0, hi=1.0)
+
+
+def _existing(folder: bool) -> Callable[[str], Path]:
+    kind = "folder" if folder else "file"
+
+    def parse(text: str) -> Path:
+        p = Path(text)
+        if not p.exists():
+            raise argparse.ArgumentTypeError(f"{text}: {kind} not found")
+        if p.is_dir() != folder:
+            raise argparse.ArgumentTypeError(f"{text}: not a {kind}")
+        return p
+
+    return parse
+
+
+existing_dir = _existing(folder=True)  # argument type: a folder that exists
+existing_file = _existing(folder=False)  # argument type: a file that exists
+
+
+def check_writable(path: str | Path, *, folder: bool) -> Path:
+    """Raise :class:`InputError` unless ``path`` can be created or replaced as a folder (or file):
+    not an existing file (folder), not an existing folder (file), no parent that is a file, writable."""
+    p = Path(path)
+    if p.exists():
+        if folder and not p.is_dir():
+            raise InputError("output path exists and is not a folder", p)
+        if not folder and p.is_dir():
+            raise InputError("output path is a folder, expected a file name", p)
+    parent = p.parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir():
+        raise InputError(f"cannot create the output: {parent} is a file", p)
+    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise InputError("output location is not writable", p if p.exists() else parent)
+    return p
+
+
+def _writable(folder: bool) -> Callable[[str], Path]:
+    def parse(text: str) -> Path:
+        try:
+            return check_writable(text, folder=folder)
+        except InputError as e:
+            raise argparse.ArgumentTypeError(str(e)) from None
+
+    return parse
+
+
+output_dir = _writable(folder=True)  # argument type: a folder to create or replace (checked before any work)
+output_file = _writable(folder=False)  # argument type: a file to create or replace
+
+
+# --- threads -----------------------------------------------------------------------------------------
+
+
+def add_threads_argument(parser: argparse.ArgumentParser) -> None:
+    default = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    parser.add_argument("--threads", type=positive_int, default=default, help=f"CPU threads for torch and numba (default: {default}, the usable cores)")
+
+
+def set_threads(n: int) -> None:
+    """Limit torch's and numba's thread pools (both matter on a small shared CPU)."""
+    import torch
+
+    torch.set_num_threads(max(1, n))
+    try:
+        import numba
+
+        numba.set_num_threads(max(1, min(n, numba.config.NUMBA_NUM_THREADS)))
+    except ImportError:
+        pass
+
+
+def add_backend_argument(parser: argparse.ArgumentParser, default: str = "auto") -> None:
+    from inpaint360gs.render.backends import backend_choices
+
+    parser.add_argument("--backend", default=default, choices=backend_choices(), help=f"rasterizer backend (default {default})")

@@ -1,0 +1,45 @@
+"""Render a model at a list of a scene's views into a folder: ``color/<stem>.png``, ``depth/<stem>.npy``
+(float32, paper Eq. 5) and ``depth/<stem>.png`` (16 bit, scales in ``render.json``)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import torch
+from tqdm import tqdm
+
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.images import write_depth, write_image
+from inpaint360gs.io.scene import Scene, View
+from inpaint360gs.render.api import render
+
+
+@torch.no_grad()
+def render_views(
+    model: Gaussians,
+    scene: Scene,
+    views: Sequence[View],
+    out: str | Path,
+    *,
+    sh_degree: int | None = None,
+    background: torch.Tensor | None = None,
+    backend: str = "auto",
+    overwrite: bool = False,
+    progress: bool = True,
+    meta: dict | None = None,
+) -> dict:
+    """Render ``views`` into ``out`` (atomically); returns what ``render.json`` holds plus ``empty_views``,
+    the number of views where no pixel is covered (alpha < 1/255 everywhere). ``meta`` goes into render.json."""
+    scales, empty = {}, 0
+    with atomic_dir(out, overwrite=overwrite) as tmp:
+        for v in tqdm(views, desc="render", disable=not (views and progress)):
+            o = render(model, v.camera, sh_degree=sh_degree, background=background, backend=backend)
+            write_image(tmp / "color" / f"{v.stem}.png", o.color)
+            scales[v.name] = write_depth(tmp / "depth" / v.stem, o.depth)
+            empty += int(bool((o.alpha < 1.0 / 255).all()))
+        info = {**(meta or {}), "scene": str(scene.root), "views": [v.name for v in views], "resize": scene.resize, "depth_png_scale": scales}
+        (tmp / "render.json").write_text(json.dumps(info, indent=2) + "\n")
+    return {**info, "empty_views": empty}

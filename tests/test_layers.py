@@ -1,0 +1,88 @@
+"""The package's floors (docs/architecture.md, "Layers"): a module may import only from its own
+package or a lower floor; the ground floor ``core`` imports nothing else of the package; the
+library never imports the dataset tools or the CLI. Imports inside functions count too."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PKG = ROOT / "src" / "inpaint360gs"
+
+# floor of every sub-package of inpaint360gs (the order of docs/architecture.md)
+FLOORS = {
+    "core": 0,
+    "io": 1,
+    "render": 2,
+    "metrics": 2,
+    "gs": 3,
+    "segment": 4,
+    "distill": 5,
+    "remove": 6,
+    "views": 7,
+    "inpaint": 8,
+    "evaluate": 9,
+    "report": 9,
+    "pipeline": 10,
+    "cli": 11,
+}
+
+
+def _package_of(module: str) -> str | None:
+    parts = module.split(".")
+    if parts[0] != "inpaint360gs":
+        return None
+    return parts[1] if len(parts) > 1 else ""
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            out += [(node.lineno, node.module)] + [(node.lineno, f"{node.module}.{a.name}") for a in node.names if node.module == "inpaint360gs"]
+    return out
+
+
+def _modules():
+    for p in sorted(PKG.rglob("*.py")):
+        rel = p.relative_to(PKG)
+        yield p, (rel.parts[0] if len(rel.parts) > 1 else "")
+
+
+def test_every_package_has_a_floor():
+    packages = {pkg for _, pkg in _modules() if pkg}
+    assert packages <= set(FLOORS), f"add {sorted(packages - set(FLOORS))} to FLOORS and to docs/architecture.md"
+
+
+@pytest.mark.parametrize("path, pkg", list(_modules()), ids=lambda x: str(x.relative_to(PKG)) if isinstance(x, Path) else None)
+def test_imports_go_down_only(path: Path, pkg: str):
+    bad = []
+    for line, mod in _imports(path):
+        if mod.split(".")[0] == "dataset_tools":
+            bad.append(f"line {line}: {mod} (the library must not import the dataset tools)")
+            continue
+        target = _package_of(mod)
+        if target is None or target == pkg:
+            continue
+        if pkg == "":  # top-level modules (__init__) import nothing heavy of the package
+            bad.append(f"line {line}: {mod}")
+            continue
+        if target == "" or target not in FLOORS:
+            continue  # `import inpaint360gs` itself (version), or an unknown name the test above reports
+        if FLOORS[target] >= FLOORS[pkg]:
+            bad.append(f"line {line}: {mod} (floor {FLOORS[target]} >= {pkg}'s {FLOORS[pkg]})")
+    assert not bad, f"{path.relative_to(ROOT)} imports from its own floor or above:\n" + "\n".join(bad)
+
+
+def test_the_layer_check_catches_an_upward_import(tmp_path):
+    """The check itself: a render module importing gs is reported."""
+    p = tmp_path / "x.py"
+    p.write_text("def f():\n    from inpaint360gs.gs.trainer import train\n")
+    (line, mod), *_ = _imports(p)
+    assert (line, _package_of(mod)) == (2, "gs") and FLOORS["gs"] > FLOORS["render"]
