@@ -29,11 +29,11 @@ import numpy as np
 
 
 def run_scene(name: str, work: Path, matcher: str, camera_model: str) -> dict:
-    from dataset_tools.build.colmap import SfMConfig, read_model
-    from dataset_tools.build.leaks import leaked_point_ids, object_free_influence
-    from dataset_tools.build.pipeline import BuildConfig, build_dataset
-    from dataset_tools.build.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
-    from dataset_tools.build.unseen import derive_unseen_masks, load_object_masks, mask_iou
+    from dataset_tools.capture.colmap import SfMConfig, read_model
+    from dataset_tools.capture.leaks import leaked_point_ids, object_free_influence
+    from dataset_tools.capture.pipeline import BuildConfig, build_dataset
+    from dataset_tools.capture.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
+    from dataset_tools.capture.unseen import derive_unseen_masks, load_object_masks, mask_iou
     from dataset_tools.synth import generate_scene
 
     truth = work / "truth" / name

@@ -10,9 +10,9 @@ import pycolmap
 import pytest
 from scipy.spatial.transform import Rotation
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.colmap import SfMConfig, _pair_list, needs_undistortion, read_model, to_pinhole
-from dataset_tools.build.posecheck import pose_accuracy, rotation_angle_deg
+from dataset_tools.capture import handmade as hm
+from dataset_tools.capture.colmap import SfMConfig, _pair_list, needs_undistortion, read_model, to_pinhole
+from dataset_tools.capture.posecheck import pose_accuracy, rotation_angle_deg
 from inpaint360gs.core.errors import InputError
 
 INC = [f"IMG_{i:03d}.png" for i in range(40)]

@@ -9,11 +9,11 @@ import cv2
 import numpy as np
 import pytest
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.colmap import read_model
-from dataset_tools.build.importers import import_360usid, import_spinnerf
-from dataset_tools.build.leaks import leaked_point_ids
-from dataset_tools.build.validate import validate_scene
+from dataset_tools.capture import handmade as hm
+from dataset_tools.capture.colmap import read_model
+from dataset_tools.capture.importers import import_360usid, import_spinnerf
+from dataset_tools.capture.leaks import leaked_point_ids
+from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 from inpaint360gs.core.errors import InputError
 

@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.leaks import remove_leaked_points
-from dataset_tools.build.unseen import (
+from dataset_tools.capture import handmade as hm
+from dataset_tools.capture.leaks import remove_leaked_points
+from dataset_tools.capture.unseen import (
     UnseenConfig,
     _views,
     derive_unseen_masks,
@@ -19,7 +19,7 @@ from dataset_tools.build.unseen import (
     mask_iou,
     sparse_depth,
 )
-from dataset_tools.build.validate import validate_scene
+from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 from inpaint360gs.core.errors import InputError
 
@@ -50,7 +50,7 @@ def _copy(root: Path, tmp_path: Path) -> Path:
 
 def test_sparse_depth_is_exact_on_a_plane(scene):
     root, geo, _, _ = scene
-    from dataset_tools.build.colmap import read_model
+    from dataset_tools.capture.colmap import read_model
 
     views = _views(read_model(root / "sparse" / "0"), max_err=2.0)
     tv = views["test_000.png"]
@@ -150,7 +150,7 @@ def test_import_checks_names_and_sizes(scene, tmp_path, capsys):
 
 
 def test_read_mask_conventions(tmp_path):
-    from dataset_tools.build.layout import read_mask
+    from dataset_tools.capture.layout import read_mask
 
     m = np.zeros((6, 8), np.uint8)
     m[2:4, 3:6] = 1

@@ -10,10 +10,10 @@ import numpy as np
 import pycolmap
 import pytest
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.layout import write_downscaled
-from dataset_tools.build.leaks import remove_leaked_points
-from dataset_tools.build.validate import validate_scene
+from dataset_tools.capture import handmade as hm
+from dataset_tools.capture.layout import write_downscaled
+from dataset_tools.capture.leaks import remove_leaked_points
+from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 
 

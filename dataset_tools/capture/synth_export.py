@@ -13,10 +13,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.build.captures import TEST_PREFIX, is_test_name
-from dataset_tools.build.colmap import read_model
-from dataset_tools.build.layout import read_image, write_mask
-from dataset_tools.build.posecheck import Pose, PoseAccuracy, pose_accuracy, reconstruction_poses, similarity_to_true
+from dataset_tools.capture.captures import TEST_PREFIX, is_test_name
+from dataset_tools.capture.colmap import read_model
+from dataset_tools.capture.layout import read_image, write_mask
+from dataset_tools.capture.posecheck import Pose, PoseAccuracy, pose_accuracy, reconstruction_poses, similarity_to_true
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 
@@ -151,7 +151,7 @@ def leak_check(truth: str | Path, points: np.ndarray, tolerance: float | None = 
 
 def object_free_observations(rec, point_ids) -> np.ndarray:
     """Per point id: how many distinct object-free (``test_*``) images observe it."""
-    from dataset_tools.build.captures import is_test_name
+    from dataset_tools.capture.captures import is_test_name
 
     return np.array([len({el.image_id for el in rec.point3D(pid).track.elements if is_test_name(rec.image(el.image_id).name)})
                      for pid in point_ids], int)

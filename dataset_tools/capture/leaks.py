@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from dataset_tools.build.captures import is_test_name
+from dataset_tools.capture.captures import is_test_name
 
 
 def default_is_inclusive(name: str) -> bool:
@@ -199,7 +199,7 @@ def recolor_from_inclusive_views(
     """
     import cv2
 
-    from dataset_tools.build.layout import read_image
+    from dataset_tools.capture.layout import read_image
 
     pids = np.array(sorted(rec.points3D), dtype=np.int64)
     sums = np.zeros((len(pids), 3))

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 import pycolmap
 
-from dataset_tools.build.layout import write_json, write_mask
+from dataset_tools.capture.layout import write_json, write_mask
 
 BOX_LO = np.array([-0.5, -0.5, 0.0])
 BOX_HI = np.array([0.5, 0.5, 0.6])

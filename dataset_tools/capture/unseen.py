@@ -31,9 +31,9 @@ import numpy as np
 import pycolmap
 from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
 
-from dataset_tools.build.captures import IMAGE_SUFFIXES, is_test_name
-from dataset_tools.build.colmap import PINHOLE_MODELS, read_model, undistort_mask
-from dataset_tools.build.layout import find_mask, read_mask, write_mask
+from dataset_tools.capture.captures import IMAGE_SUFFIXES, is_test_name
+from dataset_tools.capture.colmap import PINHOLE_MODELS, read_model, undistort_mask
+from dataset_tools.capture.layout import find_mask, read_mask, write_mask
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 

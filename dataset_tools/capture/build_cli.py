@@ -1,7 +1,7 @@
 """``inpaint360gs-dataset build CAPTURES OUT``: joint COLMAP of object-inclusive + object-free photos.
 
 CAPTURES is either two folders, ``with_objects/`` and ``without_objects/``, or one folder in which the
-object-free photos are named ``test_*``. See dataset_tools/build/README.md.
+object-free photos are named ``test_*``. See dataset_tools/capture/README.md.
 """
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dataset_tools.build.captures import CaptureConfig
-from dataset_tools.build.colmap import SUPPORTED_MODELS, SfMConfig
-from dataset_tools.build.pipeline import BuildConfig, build_dataset
+from dataset_tools.capture.captures import CaptureConfig
+from dataset_tools.capture.colmap import SUPPORTED_MODELS, SfMConfig
+from dataset_tools.capture.pipeline import BuildConfig, build_dataset
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

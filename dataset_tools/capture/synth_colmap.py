@@ -18,11 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.build.colmap import read_model
-from dataset_tools.build.layout import write_json
-from dataset_tools.build.pipeline import BuildConfig, BuildReport, build_dataset
-from dataset_tools.build.posecheck import pose_accuracy, reconstruction_poses, similarity_to_true
-from dataset_tools.build.synth_export import export_raw_captures, orbit_radius, true_poses
+from dataset_tools.capture.colmap import read_model
+from dataset_tools.capture.layout import write_json
+from dataset_tools.capture.pipeline import BuildConfig, BuildReport, build_dataset
+from dataset_tools.capture.posecheck import pose_accuracy, reconstruction_poses, similarity_to_true
+from dataset_tools.capture.synth_export import export_raw_captures, orbit_radius, true_poses
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 

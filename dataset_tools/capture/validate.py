@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.build.captures import IMAGE_SUFFIXES, is_test_name, read_image_size
-from dataset_tools.build.colmap import PINHOLE_MODELS, read_model
-from dataset_tools.build.layout import find_mask, read_image, scaled_size
-from dataset_tools.build.leaks import leaked_point_ids
+from dataset_tools.capture.captures import IMAGE_SUFFIXES, is_test_name, read_image_size
+from dataset_tools.capture.colmap import PINHOLE_MODELS, read_model
+from dataset_tools.capture.layout import find_mask, read_image, scaled_size
+from dataset_tools.capture.leaks import leaked_point_ids
 from inpaint360gs.core.errors import InputError
 
 LLFFHOLD = 8  # every 8th non-test image (sorted by name) is a held-out view (DESIGN.md §3)

@@ -25,10 +25,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from dataset_tools.build.captures import IMAGE_SUFFIXES, TEST_PREFIX, is_test_name, read_image_size
-from dataset_tools.build.colmap import PINHOLE_MODELS, read_model, to_pinhole
-from dataset_tools.build.layout import find_mask, provenance, read_image, write_json, write_mask
-from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points
+from dataset_tools.capture.captures import IMAGE_SUFFIXES, TEST_PREFIX, is_test_name, read_image_size
+from dataset_tools.capture.colmap import PINHOLE_MODELS, read_model, to_pinhole
+from dataset_tools.capture.layout import find_mask, provenance, read_image, write_json, write_mask
+from dataset_tools.capture.leaks import recolor_from_inclusive_views, remove_leaked_points
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 

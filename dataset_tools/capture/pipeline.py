@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from dataset_tools.build.captures import CaptureConfig, CaptureSet, collect_captures
-from dataset_tools.build.colmap import SfMConfig, needs_undistortion, run_sfm, to_pinhole, undistort, undistort_mask
-from dataset_tools.build.layout import (
+from dataset_tools.capture.captures import CaptureConfig, CaptureSet, collect_captures
+from dataset_tools.capture.colmap import SfMConfig, needs_undistortion, run_sfm, to_pinhole, undistort, undistort_mask
+from dataset_tools.capture.layout import (
     copy_images,
     find_mask,
     provenance,
@@ -27,8 +27,8 @@ from dataset_tools.build.layout import (
     write_json,
     write_mask,
 )
-from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points, remove_points_in_masks
-from dataset_tools.build.progress import StageProgress
+from dataset_tools.capture.leaks import recolor_from_inclusive_views, remove_leaked_points, remove_points_in_masks
+from dataset_tools.capture.progress import StageProgress
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
 
