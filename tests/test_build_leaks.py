@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pycolmap
 
-from dataset_tools.capture import handmade as hm
+import scene_builder as sb
 from dataset_tools.capture.leaks import leaked_point_ids, object_free_influence, remove_leaked_points, remove_points_in_masks
 
 NAMES = ["IMG_a.png", "IMG_b.png", "IMG_c.png", "test_x.png", "test_y.png"]  # ids 1..5; 4, 5 object-free
@@ -113,8 +113,7 @@ def test_points_inside_unseen_masks_use_observations_and_pixel_centres():
 
 
 def test_handmade_scene_leaks_are_the_floor_under_the_box():
-    scene = hm.make_scene()
-    rec = hm.build_reconstruction(scene)
+    rec = sb.box_reconstruction(sb.box_scene())
     leaked = leaked_point_ids(rec)
     X = np.array([rec.point3D(i).xyz for i in leaked])
     # every leaked floor point lies under the box footprint, and every footprint point seen by test views leaked

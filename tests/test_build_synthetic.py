@@ -15,7 +15,6 @@ import cv2
 import numpy as np
 import pytest
 
-from dataset_tools.capture.colmap import read_model
 from dataset_tools.capture.leaks import inclusive_triangulation_angles, inclusive_view_counts, object_free_influence
 from dataset_tools.capture.pipeline import BuildConfig, build_dataset
 from dataset_tools.capture.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
@@ -23,6 +22,7 @@ from dataset_tools.capture.unseen import UnseenConfig, derive_unseen_masks, load
 from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.colmap import read_model
 
 pytestmark = pytest.mark.slow  # ~30 s: rendering the capture dominates
 
