@@ -10,7 +10,7 @@ against the generator's truth:
   geometric check with the visibility oracle (``synth_export.leak_check``) on the kept points and,
   for comparison, on the points the rule removed;
 * unseen masks derived from the exact object masks vs the generator's exact unseen masks (IoU);
-* build wall time (the issue's budget: <= 3 min for 64 images at 256x192 on this machine).
+* build wall time (budget: <= 3 min for 64 images at 256x192 on this machine).
 
 Usage: python benchmarks/bench_build.py [--scenes cone toys ...] [--matcher auto] [--json out.json]
 Generated scenes are cached under --work (default /tmp/inpaint360gs_bench_build).
