@@ -1,4 +1,4 @@
-"""Dataset building through COLMAP on the synthetic benchmark (issue 3 numbers).
+"""Dataset building through COLMAP on the synthetic benchmark (the numbers of the README's dataset-building table).
 
 For each scene: render it with the generator, export the captures as plain photos (no poses), run
 ``build`` (joint pycolmap SfM, one shared camera, undistortion, leak removal) and score the result
@@ -10,7 +10,7 @@ against the generator's truth:
   geometric check with the visibility oracle (``synth_export.leak_check``) on the kept points and,
   for comparison, on the points the rule removed;
 * unseen masks derived from the exact object masks vs the generator's exact unseen masks (IoU);
-* build wall time (the issue's budget: <= 3 min for 64 images at 256x192 on this machine).
+* build wall time (budget: <= 3 min for 64 images at 256x192 on this machine).
 
 Usage: python benchmarks/bench_build.py [--scenes cone toys ...] [--matcher auto] [--json out.json]
 Generated scenes are cached under --work (default /tmp/inpaint360gs_bench_build).
@@ -29,12 +29,13 @@ import numpy as np
 
 
 def run_scene(name: str, work: Path, matcher: str, camera_model: str) -> dict:
-    from dataset_tools.build.colmap import SfMConfig, read_model
-    from dataset_tools.build.leaks import leaked_point_ids, object_free_influence
-    from dataset_tools.build.pipeline import BuildConfig, build_dataset
-    from dataset_tools.build.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
-    from dataset_tools.build.unseen import derive_unseen_masks, load_object_masks, mask_iou
+    from dataset_tools.capture.colmap import SfMConfig
+    from dataset_tools.capture.leaks import leaked_point_ids, object_free_influence
+    from dataset_tools.capture.pipeline import BuildConfig, build_dataset
+    from dataset_tools.capture.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
+    from dataset_tools.capture.unseen import derive_unseen_masks, load_object_masks, mask_iou
     from dataset_tools.synth import generate_scene
+    from inpaint360gs.io.colmap import read_model
 
     truth = work / "truth" / name
     if not (truth / "scene.json").is_file():

@@ -1,21 +1,32 @@
-"""Helpers for tests: write small scene folders in the Inpaint360GS layout with pycolmap.
+"""Helpers for tests: small scene folders in the Inpaint360GS layout, built from known cameras, images
+and points, so tests can compare what the code returns against ground truth.
 
-Scenes are built from known cameras, images and points, so tests can compare what the loader
-returns against ground truth.
+* :func:`simple_scene`: random images and points seen by orbit cameras (scene loader, training).
+* :func:`box_scene`: the hand-made box scene with exact geometry (leak removal, validation, unseen
+  masks). A floor (z = 0) sampled as a grid of sparse points, a box standing on it (the object to
+  remove), cameras on a circle looking at the origin. Object-inclusive cameras do not observe floor
+  points that the box hides from them; object-free ``test_`` cameras observe every floor point in
+  their frame, so floor points under the box are observed by test views only: exactly the leaked
+  points. Exact unseen masks come from ray-box intersection, independent of any sparse depth.
 """
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
-import pycolmap
-import torch
 
 from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.layout import is_test_name
+from inpaint360gs.io import colmap
+from inpaint360gs.io.images import write_image, write_mask
+
+write_png = write_image  # RGB (float in [0, 1] or integer) -> file, by the package's image writer
 
 
 def orbit_cameras(n: int, *, radius: float = 4.0, height: float = 1.0, width: int = 64, h: int = 48, f: float = 60.0, prefix: str = "IMG_", phase: float = 0.0) -> list[Camera]:
@@ -37,32 +48,8 @@ def write_model(
     model: str = "PINHOLE",
     params: Sequence[float] | None = None,
 ) -> None:
-    """COLMAP binary model: one camera per view (or ``params`` for a given ``model``), poses, points."""
-    rec = pycolmap.Reconstruction()
-    for i, cam in enumerate(cameras, start=1):
-        if params is not None:
-            p = list(params)
-        elif model == "SIMPLE_PINHOLE":
-            p = [cam.fx, cam.cx, cam.cy]
-        else:
-            p = [cam.fx, cam.fy, cam.cx, cam.cy]
-        rec.add_camera_with_trivial_rig(pycolmap.Camera(model=model, width=cam.width, height=cam.height, params=p, camera_id=i))
-        R = cam.R.double().numpy()
-        t = cam.t.double().numpy()
-        pose = pycolmap.Rigid3d(pycolmap.Rotation3d(R), t)
-        rec.add_image_with_trivial_frame(pycolmap.Image(name=cam.name, camera_id=i, image_id=i), pose)
-    for xyz, rgb in zip(np.asarray(points, dtype=np.float64), np.asarray(colors)):
-        rec.add_point3D(xyz, pycolmap.Track(), np.asarray(np.round(np.asarray(rgb) * 255), dtype=np.uint8))
-    sparse.mkdir(parents=True, exist_ok=True)
-    rec.write_binary(str(sparse))
-
-
-def write_png(path: Path, rgb: np.ndarray | torch.Tensor) -> None:
-    a = rgb.detach().cpu().numpy() if isinstance(rgb, torch.Tensor) else np.asarray(rgb)
-    if a.dtype.kind == "f":
-        a = (np.clip(a, 0, 1) * 255 + 0.5).astype(np.uint8)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    assert cv2.imwrite(str(path), cv2.cvtColor(a, cv2.COLOR_RGB2BGR) if a.ndim == 3 else a)
+    """COLMAP binary model: one camera per view (or ``params`` for a given ``model``), poses, unobserved points."""
+    colmap.write_model(sparse, cameras, points, colors, shared_camera=False, camera_model=model, camera_params=params)
 
 
 def simple_scene(
@@ -88,3 +75,142 @@ def simple_scene(
         img = images[c.name] if images is not None else rng.integers(0, 256, size=(height, width, 3), dtype=np.uint8)
         write_png(root / "images" / c.name, img)
     return cams, points
+
+
+# --- the hand-made box scene -------------------------------------------------------------------
+
+BOX_LO = np.array([-0.5, -0.5, 0.0])
+BOX_HI = np.array([0.5, 0.5, 0.6])
+
+
+@dataclass
+class BoxScene:
+    cameras: list[Camera]  # IMG_* object-inclusive, then test_* object-free; one set of intrinsics
+    grid_step: float = 0.1
+    extent: float = 2.0
+
+    @property
+    def width(self) -> int:
+        return self.cameras[0].width
+
+    @property
+    def height(self) -> int:
+        return self.cameras[0].height
+
+    @property
+    def K(self) -> np.ndarray:
+        return self.cameras[0].K.double().numpy()
+
+
+def pose(cam: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) of ``cam`` as float64 numpy."""
+    return cam.R.double().numpy(), cam.t.double().numpy()
+
+
+def centre(cam: Camera) -> np.ndarray:
+    R, t = pose(cam)
+    return -R.T @ t
+
+
+def box_scene(n_train: int = 8, n_test: int = 2, radius: float = 3.0, height: float = 2.2,
+              width: int = 160, h: int = 120, focal: float = 110.0) -> BoxScene:
+    cams = []
+    for k in range(n_train + n_test):
+        test = k >= n_train
+        ang = 2 * np.pi * ((k - n_train + 0.5) / n_test if test else k / n_train)
+        eye = (radius * np.cos(ang), radius * np.sin(ang), height + (0.3 if test else 0.0))
+        name = f"test_{k - n_train:03d}.png" if test else f"IMG_{k:03d}.png"
+        cams.append(Camera.look_at(eye, (0.0, 0.0, 0.2), (0.0, 0.0, 1.0), focal, focal, width / 2, h / 2, width, h, name=name))
+    return BoxScene(cams)
+
+
+def floor_points(scene: BoxScene) -> np.ndarray:
+    g = np.arange(-scene.extent, scene.extent + 1e-9, scene.grid_step)
+    xx, yy = np.meshgrid(g, g)
+    return np.stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)], 1)
+
+
+def project(cam: Camera, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pixel coordinates (N, 2) (top-left pixel centre at (0.5, 0.5)) and depths (N,)."""
+    R, t = pose(cam)
+    xc = X @ R.T + t
+    uv = xc @ cam.K.double().numpy().T
+    return uv[:, :2] / uv[:, 2:3], xc[:, 2]
+
+
+def in_frame(cam: Camera, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(pixel coordinates, whether each point is in front of ``cam`` and inside its image)."""
+    uv, z = project(cam, X)
+    return uv, (z > 0) & (uv[:, 0] >= 0) & (uv[:, 0] < cam.width) & (uv[:, 1] >= 0) & (uv[:, 1] < cam.height)
+
+
+def segment_hits_box(a: np.ndarray, b: np.ndarray, lo=BOX_LO, hi=BOX_HI) -> np.ndarray:
+    """For segments a[i] -> b (b one point), whether they cross the box strictly between the ends (slab test)."""
+    d = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = (lo - a) / d
+        t2 = (hi - a) / d
+    tn = np.nanmax(np.minimum(t1, t2), axis=1)
+    tf = np.nanmin(np.maximum(t1, t2), axis=1)
+    return (tf >= tn) & (tf > 1e-9) & (tn < 1 - 1e-9)
+
+
+def box_mask(cam: Camera) -> np.ndarray:
+    """Exact silhouette of the box in ``cam`` (convex hull of its projected corners)."""
+    corners = np.array([[x, y, z] for x in (BOX_LO[0], BOX_HI[0]) for y in (BOX_LO[1], BOX_HI[1])
+                        for z in (BOX_LO[2], BOX_HI[2])])
+    uv, _ = project(cam, corners)
+    hull = cv2.convexHull((uv * 16).round().astype(np.int32))  # 4 fractional bits, pixel-centre convention
+    m = np.zeros((cam.height, cam.width), np.uint8)
+    cv2.fillConvexPoly(m, hull - 8, 1, lineType=cv2.LINE_8, shift=4)  # -8 = -0.5 px: centres at +0.5
+    return m.astype(bool)
+
+
+def exact_unseen_mask(scene: BoxScene, test_cam: Camera) -> np.ndarray:
+    """Test-view pixels whose floor point every object-inclusive camera misses (out of frame or box in the way)."""
+    jj, ii = np.meshgrid(np.arange(test_cam.width) + 0.5, np.arange(test_cam.height) + 0.5)
+    R, _ = pose(test_cam)
+    rays = np.stack([jj, ii, np.ones_like(jj)], -1).reshape(-1, 3) @ np.linalg.inv(scene.K).T @ R
+    c = centre(test_cam)
+    s = -c[2] / rays[:, 2]  # ray-floor intersection
+    P = c + s[:, None] * rays
+    seen = np.zeros(len(P), bool)
+    for cam in scene.cameras:
+        if not is_test_name(cam.name):
+            seen |= in_frame(cam, P)[1] & ~segment_hits_box(P, centre(cam))
+    return ~seen.reshape(test_cam.height, test_cam.width)
+
+
+def box_reconstruction(scene: BoxScene):
+    """``pycolmap.Reconstruction``: one PINHOLE camera, all images registered, floor points with exact observations."""
+    X = floor_points(scene)
+    inside_box = np.all((X[:, :2] > BOX_LO[:2]) & (X[:, :2] < BOX_HI[:2]), axis=1)
+    keypoints, tracks = [], [[] for _ in range(len(X))]  # point -> [(camera index, keypoint index)]
+    for i, cam in enumerate(scene.cameras):
+        uv, vis = in_frame(cam, X)
+        if not is_test_name(cam.name):
+            vis &= ~segment_hits_box(X, centre(cam)) & ~inside_box  # the box hides these while present
+        idx = np.flatnonzero(vis)
+        keypoints.append(uv[idx])
+        for k, p in enumerate(idx):
+            tracks[p].append((i, k))
+    keep = [p for p, track in enumerate(tracks) if len(track) >= 2]
+    grey = np.full((len(keep), 3), 128, np.uint8)
+    return colmap.build_model(scene.cameras, X[keep], grey, tracks=[tracks[p] for p in keep], keypoints=keypoints)
+
+
+def write_box_scene(scene: BoxScene, out: Path, seed: int = 0):
+    """A complete scene folder in the Inpaint360GS layout (noise images, exact unseen masks, leaks kept);
+    returns its ``pycolmap.Reconstruction``."""
+    rng = np.random.default_rng(seed)
+    out = Path(out)
+    for cam in scene.cameras:
+        write_image(out / "images" / cam.name, rng.integers(0, 256, (cam.height, cam.width, 3), dtype=np.uint8))
+        if is_test_name(cam.name):
+            write_mask(out / "unseen_mask" / cam.name, exact_unseen_mask(scene, cam))
+    rec = box_reconstruction(scene)
+    (out / "sparse" / "0").mkdir(parents=True, exist_ok=True)
+    rec.write(out / "sparse" / "0")
+    scene_json = {"name": out.name, "objects": [{"id": 1, "label": "box"}], "removal_targets": [1]}
+    (out / "scene.json").write_text(json.dumps(scene_json, indent=2) + "\n")
+    return rec

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from dataset_tools.build.captures import CaptureConfig, collect_captures
+from dataset_tools.capture.captures import CaptureConfig, collect_captures
 from dataset_tools.cli import main as dataset_main
 from inpaint360gs.core.errors import InputError
 

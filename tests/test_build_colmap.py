@@ -10,10 +10,11 @@ import pycolmap
 import pytest
 from scipy.spatial.transform import Rotation
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.colmap import SfMConfig, _pair_list, needs_undistortion, read_model, to_pinhole
-from dataset_tools.build.posecheck import pose_accuracy, rotation_angle_deg
+import scene_builder as sb
+from dataset_tools.capture.colmap import SfMConfig, _pair_list, needs_undistortion
+from dataset_tools.capture.posecheck import pose_accuracy, rotation_angle_deg
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.colmap import read_model, to_pinhole
 
 INC = [f"IMG_{i:03d}.png" for i in range(40)]
 FREE = [f"test_{i:03d}.png" for i in range(10)]
@@ -57,7 +58,7 @@ def test_bad_config_values_are_input_errors():
 
 
 def test_simple_pinhole_becomes_pinhole():
-    rec = hm.build_reconstruction(hm.make_scene())
+    rec = sb.box_reconstruction(sb.box_scene())
     cam = rec.cameras[1]
     cam.model = pycolmap.Camera(model="SIMPLE_PINHOLE", width=160, height=120, params=[110, 80, 60]).model
     cam.params = [110.0, 80.0, 60.0]
@@ -69,7 +70,7 @@ def test_simple_pinhole_becomes_pinhole():
 
 
 def test_read_model_rejects_corrupt_files_quickly(tmp_path):
-    rec = hm.build_reconstruction(hm.make_scene())
+    rec = sb.box_reconstruction(sb.box_scene())
     rec.write(tmp_path)
     assert read_model(tmp_path).num_points3D() == rec.num_points3D()
     (tmp_path / "images.bin").write_bytes(struct.pack("<Q", 2**40) + bytes(100))
@@ -83,8 +84,12 @@ def test_read_model_rejects_corrupt_files_quickly(tmp_path):
 
 
 def _true_poses():
-    scene = hm.make_scene(n_train=12, n_test=4)
-    return {c.name: (c.R, c.t) for c in scene.cameras}
+    """Poses of the box scene's cameras, made exact rotations (they are float32 look-at poses)."""
+    out = {}
+    for c in sb.box_scene(n_train=12, n_test=4).cameras:
+        R = Rotation.from_matrix(sb.pose(c)[0]).as_matrix()
+        out[c.name] = (R, -R @ sb.centre(c))
+    return out
 
 
 def test_pose_accuracy_is_zero_under_any_similarity():

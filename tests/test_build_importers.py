@@ -9,19 +9,19 @@ import cv2
 import numpy as np
 import pytest
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.colmap import read_model
-from dataset_tools.build.importers import import_360usid, import_spinnerf
-from dataset_tools.build.leaks import leaked_point_ids
-from dataset_tools.build.validate import validate_scene
+import scene_builder as sb
+from dataset_tools.capture.importers import import_360usid, import_spinnerf
+from dataset_tools.capture.leaks import leaked_point_ids
+from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.colmap import read_model
 
 
 def _source(tmp_path: Path, rename) -> tuple[Path, int, dict]:
     """A hand-made scene whose files/model names are mapped by ``rename(name) -> (folder, new name)``."""
-    geo = hm.make_scene()
-    rec = hm.build_reconstruction(geo)
+    geo = sb.box_scene()
+    rec = sb.box_reconstruction(geo)
     n_leaked = len(leaked_point_ids(rec))
     src = tmp_path / "src"
     rng = np.random.default_rng(0)
@@ -33,7 +33,7 @@ def _source(tmp_path: Path, rename) -> tuple[Path, int, dict]:
         cv2.imwrite(str(src / folder / new), rng.integers(0, 256, (geo.height, geo.width, 3), dtype=np.uint8))
         if im.name.startswith("test_"):
             cam = next(c for c in geo.cameras if c.name == im.name)
-            exact[new] = hm.exact_unseen_mask(geo, cam)
+            exact[new] = sb.exact_unseen_mask(geo, cam)
         im.name = new
     (src / "sparse" / "0").mkdir(parents=True)
     rec.write(src / "sparse" / "0")

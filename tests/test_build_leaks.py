@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pycolmap
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.leaks import leaked_point_ids, object_free_influence, remove_leaked_points, remove_points_in_masks
+import scene_builder as sb
+from dataset_tools.capture.leaks import leaked_point_ids, object_free_influence, remove_leaked_points, remove_points_in_masks
 
 NAMES = ["IMG_a.png", "IMG_b.png", "IMG_c.png", "test_x.png", "test_y.png"]  # ids 1..5; 4, 5 object-free
 
@@ -64,7 +64,7 @@ def test_default_also_removes_points_one_training_view_cannot_triangulate():
 def test_default_also_removes_points_whose_training_rays_are_nearly_parallel():
     """Camera centres at (-0.1 i, 0, 0); point k at (0, 0, 5 + k). Point 1 (images 1, 2 at depth 5):
     rays 1.146° apart; point 2 (images 1, 3 + a test view, depth 6): atan(0.3/6) - atan(0.1/6) = 1.907°."""
-    from dataset_tools.build.leaks import inclusive_triangulation_angles
+    from dataset_tools.capture.leaks import inclusive_triangulation_angles
 
     tracks = [[(1, 0), (2, 0)], [(1, 1), (3, 1), (4, 1)]]
     ang = inclusive_triangulation_angles(_rec(tracks))
@@ -113,8 +113,7 @@ def test_points_inside_unseen_masks_use_observations_and_pixel_centres():
 
 
 def test_handmade_scene_leaks_are_the_floor_under_the_box():
-    scene = hm.make_scene()
-    rec = hm.build_reconstruction(scene)
+    rec = sb.box_reconstruction(sb.box_scene())
     leaked = leaked_point_ids(rec)
     X = np.array([rec.point3D(i).xyz for i in leaked])
     # every leaked floor point lies under the box footprint, and every footprint point seen by test views leaked
@@ -156,7 +155,7 @@ def test_object_free_influence_closed_form():
 def test_point_colours_come_from_object_inclusive_images_only(tmp_path):
     import cv2
 
-    from dataset_tools.build.leaks import recolor_from_inclusive_views
+    from dataset_tools.capture.leaks import recolor_from_inclusive_views
 
     rec = _rec(TRACKS)
     # IMG_a red, IMG_b blue, IMG_c green; the object-free views white (must not count)

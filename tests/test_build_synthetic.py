@@ -15,14 +15,14 @@ import cv2
 import numpy as np
 import pytest
 
-from dataset_tools.build.colmap import read_model
-from dataset_tools.build.leaks import inclusive_triangulation_angles, inclusive_view_counts, object_free_influence
-from dataset_tools.build.pipeline import BuildConfig, build_dataset
-from dataset_tools.build.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
-from dataset_tools.build.unseen import UnseenConfig, derive_unseen_masks, load_object_masks, mask_iou
-from dataset_tools.build.validate import validate_scene
+from dataset_tools.capture.leaks import inclusive_triangulation_angles, inclusive_view_counts, object_free_influence
+from dataset_tools.capture.pipeline import BuildConfig, build_dataset
+from dataset_tools.capture.synth_export import export_raw_captures, leak_check, object_free_observations, score_build, to_truth_frame
+from dataset_tools.capture.unseen import UnseenConfig, derive_unseen_masks, load_object_masks, mask_iou
+from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.colmap import read_model
 
 pytestmark = pytest.mark.slow  # ~30 s: rendering the capture dominates
 
@@ -114,7 +114,7 @@ def test_unseen_masks_derived_from_object_masks_match_the_generator(built, tmp_p
     exact = {n: cv2.imread(str(out / "unseen_mask" / n), 0) > 127 for n in derived}
     ious = [mask_iou(derived[n], exact[n]) for n in derived]
     assert len(ious) == _counts(truth)[1]
-    assert np.mean(ious) >= 0.8, ious  # measured 0.90 (0.63-0.96); limits in dataset_tools/build/README.md
+    assert np.mean(ious) >= 0.8, ious  # measured 0.90 (0.63-0.96); limits in dataset_tools/capture/README.md
 
 
 def test_cli_sequential_matcher_one_folder_layout(built, tmp_path, capsys):
@@ -139,7 +139,7 @@ def test_cli_sequential_matcher_one_folder_layout(built, tmp_path, capsys):
 
 
 def test_synthetic_scene_rebuilt_through_colmap_keeps_ground_truth(built, tmp_path, capsys):
-    from dataset_tools.build.synth_colmap import build_synthetic_with_colmap
+    from dataset_tools.capture.synth_colmap import build_synthetic_with_colmap
 
     truth, _, _, _ = built
     out = tmp_path / "cone_colmap"

@@ -9,9 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.leaks import remove_leaked_points
-from dataset_tools.build.unseen import (
+import scene_builder as sb
+from dataset_tools.capture.leaks import remove_leaked_points
+from dataset_tools.capture.unseen import (
     UnseenConfig,
     _views,
     derive_unseen_masks,
@@ -19,7 +19,7 @@ from dataset_tools.build.unseen import (
     mask_iou,
     sparse_depth,
 )
-from dataset_tools.build.validate import validate_scene
+from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 from inpaint360gs.core.errors import InputError
 
@@ -28,8 +28,8 @@ from inpaint360gs.core.errors import InputError
 def scene(tmp_path_factory):
     """Hand-built scene folder (leaks removed, unseen_mask/ taken away) plus its exact geometry."""
     root = tmp_path_factory.mktemp("unseen") / "scene"
-    geo = hm.make_scene()
-    rec = hm.write_scene_folder(geo, root)
+    geo = sb.box_scene()
+    rec = sb.write_box_scene(geo, root)
     remove_leaked_points(rec)
     rec.write(root / "sparse" / "0")
     exact = {p.name: cv2.imread(str(p), 0) > 127 for p in (root / "unseen_mask").iterdir()}
@@ -38,7 +38,7 @@ def scene(tmp_path_factory):
     masks_dir.mkdir()
     for cam in geo.cameras:
         if not cam.name.startswith("test_"):
-            cv2.imwrite(str(masks_dir / cam.name), hm.box_mask(geo, cam).astype(np.uint8) * 255)
+            cv2.imwrite(str(masks_dir / cam.name), sb.box_mask(cam).astype(np.uint8) * 255)
     return root, geo, exact, masks_dir
 
 
@@ -50,7 +50,7 @@ def _copy(root: Path, tmp_path: Path) -> Path:
 
 def test_sparse_depth_is_exact_on_a_plane(scene):
     root, geo, _, _ = scene
-    from dataset_tools.build.colmap import read_model
+    from inpaint360gs.io.colmap import read_model
 
     views = _views(read_model(root / "sparse" / "0"), max_err=2.0)
     tv = views["test_000.png"]
@@ -59,8 +59,9 @@ def test_sparse_depth_is_exact_on_a_plane(scene):
     jj, ii = np.meshgrid(np.arange(geo.width) + 0.5, np.arange(geo.height) + 0.5)
     rays = np.stack([jj, ii, np.ones_like(jj)], -1) @ np.linalg.inv(geo.K).T  # camera-frame, z = 1
     # floor z = 0: with x_cam = R X + t and n = R e_z, n . x_cam = n . t, so z = (n . t) / (n . ray)
-    n_cam = cam.R @ np.array([0.0, 0.0, 1.0])
-    z_true = (n_cam @ cam.t) / (rays @ n_cam)
+    R, t = sb.pose(cam)
+    n_cam = R @ np.array([0.0, 0.0, 1.0])
+    z_true = (n_cam @ t) / (rays @ n_cam)
     assert (z_true > 0).all()
     # inside the convex hull of the observed points the linear inverse-depth interpolation is exact
     hull = cv2.convexHull(tv.obs_xy.astype(np.float32))
@@ -150,7 +151,7 @@ def test_import_checks_names_and_sizes(scene, tmp_path, capsys):
 
 
 def test_read_mask_conventions(tmp_path):
-    from dataset_tools.build.layout import read_mask
+    from dataset_tools.capture.layout import read_mask
 
     m = np.zeros((6, 8), np.uint8)
     m[2:4, 3:6] = 1

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from dataset_tools.synth import shapes
 from dataset_tools.synth.cameras import View, intrinsics, look_at
@@ -12,6 +13,7 @@ from dataset_tools.synth.raycast import World
 from dataset_tools.synth.render import render
 from dataset_tools.synth.spec import ObjectSpec, Prim, SceneSpec, euler_matrix
 from dataset_tools.synth.textures import Material, albedo, box_square
+from inpaint360gs.core.camera import Camera
 
 FLAT = Material("noise", ((0.5, 0.5, 0.5), (0.5, 0.5, 0.5)), scale=0.1, detail=0.0)
 
@@ -112,9 +114,8 @@ def _sphere_scene(radius=0.5, centre=(0.0, 0.0, 0.0)):
 
 
 def _view(eye, target, w=33, h=25, name="v.png"):
-    fx, fy, cx, cy = intrinsics(w, h)
     R, t = look_at(np.asarray(eye, float), np.asarray(target, float), up=(0.0, 0.0, 1.0))
-    return View(name, R, t, fx, fy, cx, cy, w, h)
+    return View.at(name, R, t, intrinsics(w, h), w, h)
 
 
 def test_render_sphere_depth_closed_form():
@@ -143,12 +144,14 @@ def test_render_sphere_depth_closed_form():
 
 
 def test_view_matches_project_camera_convention():
-    """View <-> inpaint360gs Camera: same pose, and u = fx x/z + cx with pixel centres at +0.5."""
+    """A View is an inpaint360gs Camera: same pose, and u = fx x/z + cx with pixel centres at +0.5."""
     v = _view((1.0, -2.0, 1.5), (0.1, 0.2, 0.3), w=64, h=48)
-    cam = v.to_camera()
+    cam = v.camera
+    assert cam.R.dtype == torch.float64 and cam.name == "v.png"
     np.testing.assert_allclose(cam.center.numpy(), v.center, atol=1e-12)
-    back = View.from_camera(cam)
-    np.testing.assert_array_equal(back.R, v.R)
+    ref = Camera.look_at((1.0, -2.0, 1.5), (0.1, 0.2, 0.3), (0.0, 0.0, 1.0), cam.fx, cam.fy, cam.cx, cam.cy, 64, 48)
+    np.testing.assert_allclose(ref.R.numpy(), v.R, atol=1e-6)  # the core look_at, in float32
+    np.testing.assert_allclose(View(ref).t, v.t, atol=1e-6)  # any dtype reads back as float64
     x = np.array([[0.1, 0.2, 0.3], [0.5, -0.2, 0.1]])
     xc = x @ cam.R.numpy().T + cam.t.numpy()
     uv, z = v.project(x)

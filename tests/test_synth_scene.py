@@ -35,7 +35,8 @@ def toys(tmp_path_factory) -> Path:
 
 def _cams(scene: Path) -> tuple[dict, list[View]]:
     cj = json.loads((scene / "gt" / "cameras.json").read_text())
-    views = [View(c["name"], np.array(c["R"]), np.array(c["t"]), cj["fx"], cj["fy"], cj["cx"], cj["cy"], cj["width"], cj["height"], c["object_free"]) for c in cj["images"]]
+    K = (cj["fx"], cj["fy"], cj["cx"], cj["cy"])
+    views = [View.at(c["name"], c["R"], c["t"], K, cj["width"], cj["height"], c["object_free"]) for c in cj["images"]]
     return cj, views
 
 
@@ -44,8 +45,9 @@ def _depth(scene: Path, v: View) -> np.ndarray:
 
 
 def _backproject(v: View, depth: np.ndarray) -> np.ndarray:
-    jj, ii = np.meshgrid(np.arange(v.width) + 0.5, np.arange(v.height) + 0.5)
-    xc = np.stack([(jj - v.cx) / v.fx * depth, (ii - v.cy) / v.fy * depth, depth], -1).reshape(-1, 3)
+    c = v.camera
+    jj, ii = np.meshgrid(np.arange(c.width) + 0.5, np.arange(c.height) + 0.5)
+    xc = np.stack([(jj - c.cx) / c.fx * depth, (ii - c.cy) / c.fy * depth, depth], -1).reshape(-1, 3)
     return (xc - v.t) @ v.R  # R^T (x_cam - t)
 
 
@@ -245,7 +247,7 @@ def test_render_view_reproduces_the_captures(toys):
     sc = load_scene(toys)
     _, views = _cams(toys)
     for v in (views[0], views[-1]):
-        r = render_view(toys, v.to_camera() if not v.object_free else v, with_objects=not v.object_free)
+        r = render_view(toys, v.camera if not v.object_free else v, with_objects=not v.object_free)
         np.testing.assert_array_equal(r.rgb8(), np.array(Image.open(toys / "images" / v.name)))
         np.testing.assert_array_equal(r.instance, np.array(Image.open(toys / "gt" / "instance" / v.name)))
         np.testing.assert_allclose(r.depth, _depth(toys, v), rtol=1e-6)
@@ -309,7 +311,7 @@ def test_catalogue():
     for v in sc.inclusive_views:
         for prim, _, c in legs[:4]:
             dist = np.linalg.norm(v.center - c)
-            assert 0.8 <= 2 * prim.params[0] * v.fx / dist <= 2.5
+            assert 0.8 <= 2 * prim.params[0] * v.camera.fx / dist <= 2.5
     # the outdoor scene has a wider orbit than the indoor ones
     r_garden = orbit_geometry(SCENES["garden"], 256, 192)[1]
     assert all(r_garden > orbit_geometry(s, 256, 192)[1] for n, s in SCENES.items() if n != "garden")

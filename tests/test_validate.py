@@ -10,18 +10,18 @@ import numpy as np
 import pycolmap
 import pytest
 
-from dataset_tools.build import handmade as hm
-from dataset_tools.build.layout import write_downscaled
-from dataset_tools.build.leaks import remove_leaked_points
-from dataset_tools.build.validate import validate_scene
+import scene_builder as sb
+from dataset_tools.capture.layout import write_downscaled
+from dataset_tools.capture.leaks import remove_leaked_points
+from dataset_tools.capture.validate import validate_scene
 from dataset_tools.cli import main as dataset_main
 
 
 @pytest.fixture(scope="module")
 def good_scene(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("validate") / "good"
-    scene = hm.make_scene()
-    rec = hm.write_scene_folder(scene, root)
+    scene = sb.box_scene()
+    rec = sb.write_box_scene(scene, root)
     remove_leaked_points(rec)
     rec.write(root / "sparse" / "0")
     write_downscaled(root / "images", sorted(p.name for p in (root / "images").iterdir()), root, [2])
@@ -45,7 +45,7 @@ def test_good_scene_passes(good_scene, capsys):
 
 
 def _break_leak(s: Path) -> None:
-    rec = hm.build_reconstruction(hm.make_scene())  # the model before leak removal
+    rec = sb.box_reconstruction(sb.box_scene())  # the model before leak removal
     rec.write(s / "sparse" / "0")
 
 

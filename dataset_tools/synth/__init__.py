@@ -1,7 +1,7 @@
 """Synthetic 360° inpainting benchmark: procedurally textured analytic scenes rendered by a small ray caster.
 
 Each scene has object-inclusive orbit captures, object-free ``test_`` captures, exact ground truth
-(poses, instance ids, depth, unseen masks) and a sparse model from the true poses (issue 2, item 5).
+(poses, instance ids, depth, unseen masks) and a sparse model from the true poses.
 
 Public API:
   SCENES, scene_spec(name)                       the catalogue

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
+from dataclasses import replace
 from pathlib import Path
 
 from dataset_tools.synth.cameras import View
@@ -21,12 +22,13 @@ def render_view(
 ) -> Rendering:
     """Render any camera of a scene: RGB (supersampled), centre-ray z-depth, instance ids and hit points.
 
-    ``scene``: a :class:`SynthScene` or a generated scene folder. ``camera``: a :class:`View` or an
-    :class:`inpaint360gs.core.camera.Camera`. ``with_objects=False`` removes the removal targets
-    (the object-free capture); ``hidden`` instead names exactly which object ids to remove.
+    ``scene``: a :class:`SynthScene` or a generated scene folder. ``camera``: an
+    :class:`inpaint360gs.core.camera.Camera` (any dtype or device) or a :class:`View`.
+    ``with_objects=False`` removes the removal targets (the object-free capture); ``hidden`` instead
+    names exactly which object ids to remove.
     """
     sc = as_scene(scene)
-    view = camera if isinstance(camera, View) else View.from_camera(camera)
+    view = camera if isinstance(camera, View) else View(camera if camera.name else replace(camera, name="view"))
     if hidden is not None:
         world = World(sc.spec, frozenset(int(i) for i in hidden), sc.seed)
     else:

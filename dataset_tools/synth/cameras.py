@@ -1,7 +1,8 @@
 """Capture poses of a synthetic scene: one shared PINHOLE intrinsic, a 360° orbit and object-free views near it.
 
-Poses follow COLMAP/OpenCV (``x_cam = R x_world + t``; x right, y down, z forward), like
-:class:`inpaint360gs.core.camera.Camera`, but in float64 numpy so that GT is exact.
+A :class:`View` is a core :class:`~inpaint360gs.core.camera.Camera` (float64 tensors, COLMAP/OpenCV
+convention) plus whether the removal targets are absent; the ray casting reads its pose as float64
+numpy so that the ground truth is exact and bit-reproducible.
 """
 
 from __future__ import annotations
@@ -10,52 +11,76 @@ import zlib
 from dataclasses import dataclass
 
 import numpy as np
+import torch
 
 from dataset_tools.synth.shapes import rows_times
 from dataset_tools.synth.spec import SceneSpec
+from inpaint360gs.core.camera import Camera
 
 HFOV_DEG = 60.0  # horizontal field of view shared by all captures
 
 
+def _f64(x: torch.Tensor) -> np.ndarray:
+    return x.detach().cpu().to(torch.float64).numpy()  # no copy for a float64 CPU tensor
+
+
 @dataclass(frozen=True)
 class View:
-    """One capture: name, world->camera pose, intrinsics, and whether the removal targets are absent."""
+    """One capture: its camera and whether the removal targets are absent from it."""
 
-    name: str
-    R: np.ndarray  # (3, 3) float64
-    t: np.ndarray  # (3,) float64
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
+    camera: Camera
     object_free: bool = False
 
+    @staticmethod
+    def at(name: str, R: np.ndarray, t: np.ndarray, intrinsics: tuple[float, float, float, float], width: int,
+           height: int, object_free: bool = False) -> "View":
+        """A view at the float64 pose (R, t) with intrinsics (fx, fy, cx, cy)."""
+        fx, fy, cx, cy = intrinsics
+        R = torch.as_tensor(np.asarray(R, dtype=np.float64))
+        t = torch.as_tensor(np.asarray(t, dtype=np.float64))
+        return View(Camera(R=R, t=t, fx=fx, fy=fy, cx=cx, cy=cy, width=width, height=height, name=name), object_free)
+
     @property
-    def center(self) -> np.ndarray:
-        return -self.R.T @ self.t
+    def name(self) -> str:
+        return self.camera.name
 
     @property
     def stem(self) -> str:
         return self.name.rsplit(".", 1)[0]
 
+    @property
+    def R(self) -> np.ndarray:
+        """(3, 3) float64 world -> camera rotation."""
+        return _f64(self.camera.R)
+
+    @property
+    def t(self) -> np.ndarray:
+        """(3,) float64 world -> camera translation."""
+        return _f64(self.camera.t)
+
+    @property
+    def center(self) -> np.ndarray:
+        """Camera centre ``-R^T t`` in float64 numpy (torch's matmul rounds differently: GT must not change)."""
+        return -self.R.T @ self.t
+
     def project(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pixel coordinates (n, 2) (pixel (i, j) centre at (j+0.5, i+0.5)) and camera z (n,) of world points."""
+        c = self.camera
         xc = rows_times(x, self.R) + self.t
         z = xc[:, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
-            uv = np.stack([self.fx * xc[:, 0] / z + self.cx, self.fy * xc[:, 1] / z + self.cy], -1)
+            uv = np.stack([c.fx * xc[:, 0] / z + c.cx, c.fy * xc[:, 1] / z + c.cy], -1)
         return uv, z
 
     def in_view(self, x: np.ndarray) -> np.ndarray:
         """In front of the camera and inside the image rectangle [0, W) x [0, H)."""
         uv, z = self.project(x)
-        return (z > 0) & (uv[:, 0] >= 0) & (uv[:, 0] < self.width) & (uv[:, 1] >= 0) & (uv[:, 1] < self.height)
+        return (z > 0) & (uv[:, 0] >= 0) & (uv[:, 0] < self.camera.width) & (uv[:, 1] >= 0) & (uv[:, 1] < self.camera.height)
 
     def rays(self, u: np.ndarray, v: np.ndarray) -> np.ndarray:
         """World ray directions with camera-z component 1 (so the hit ``t`` is the z-depth) through pixel coords."""
-        dc = np.stack([(u - self.cx) / self.fx, (v - self.cy) / self.fy, np.ones_like(u)], -1)
+        c = self.camera
+        dc = np.stack([(u - c.cx) / c.fx, (v - c.cy) / c.fy, np.ones_like(u)], -1)
         return rows_times(dc, self.R.T)
 
     def to_json(self) -> dict:
@@ -67,25 +92,6 @@ class View:
             "center": self.center.tolist(),
         }
 
-    def to_camera(self):
-        """The same view as an :class:`inpaint360gs.core.camera.Camera` (float64 tensors)."""
-        import torch
-
-        from inpaint360gs.core.camera import Camera
-
-        return Camera(
-            R=torch.from_numpy(self.R.copy()), t=torch.from_numpy(self.t.copy()), fx=self.fx, fy=self.fy,
-            cx=self.cx, cy=self.cy, width=self.width, height=self.height, name=self.name,
-        )
-
-    @staticmethod
-    def from_camera(cam, object_free: bool = False) -> "View":
-        """Accept an :class:`inpaint360gs.core.camera.Camera` (any dtype/device)."""
-        R = np.asarray(cam.R.detach().cpu().double().numpy(), dtype=np.float64)
-        t = np.asarray(cam.t.detach().cpu().double().numpy(), dtype=np.float64)
-        return View(cam.name or "view", R, t, float(cam.fx), float(cam.fy), float(cam.cx), float(cam.cy),
-                    int(cam.width), int(cam.height), object_free)
-
 
 def intrinsics(width: int, height: int) -> tuple[float, float, float, float]:
     """(fx, fy, cx, cy) for square pixels and :data:`HFOV_DEG` horizontal field of view."""
@@ -94,7 +100,11 @@ def intrinsics(width: int, height: int) -> tuple[float, float, float, float]:
 
 
 def look_at(eye: np.ndarray, target: np.ndarray, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
-    """World->camera (R, t) for a camera at ``eye`` looking at ``target`` with image y pointing away from ``up``."""
+    """World->camera (R, t) for a camera at ``eye`` looking at ``target`` with image y pointing away from ``up``.
+
+    :meth:`Camera.look_at <inpaint360gs.core.camera.Camera.look_at>` in float64 numpy: the generator's
+    poses must stay bit-identical, and torch's float64 matmul rounds ``t`` differently.
+    """
     eye = np.asarray(eye, dtype=np.float64)
     z = np.asarray(target, dtype=np.float64) - eye
     z /= np.linalg.norm(z)
@@ -127,7 +137,7 @@ def capture_views(spec: SceneSpec, n_views: int, n_test: int, width: int, height
     bounds (``cycles`` times per turn); the seed adds small azimuth/elevation/radius/aim jitter.
     Object-free views sit between orbit positions, inside the orbit's elevation band, radii within +-4%.
     """
-    fx, fy, cx, cy = intrinsics(width, height)
+    K = intrinsics(width, height)
     target, radius = orbit_geometry(spec, width, height)
     lo, hi = spec.orbit.elevation
     mid, amp = 0.5 * (lo + hi), 0.5 * (hi - lo)
@@ -138,7 +148,7 @@ def capture_views(spec: SceneSpec, n_views: int, n_test: int, width: int, height
     def make(name, az, el, r, aim, free):
         eye = target + r * np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
         R, t = look_at(eye, target + aim)
-        views.append(View(name, R, t, fx, fy, cx, cy, width, height, free))
+        views.append(View.at(name, R, t, K, width, height, free))
 
     rng = _rng(spec, seed, 0)
     step = 2.0 * np.pi / n_views

@@ -8,7 +8,7 @@ mutual occlusion where some objects are removal targets and others stay (``fruit
 Units are metres; the floor is z = 0 and objects sit 2 mm into it, so no surface is coplanar with it.
 The generator's seed changes only texture noise and small camera jitter, never the geometry.
 Textures carry blob-like detail (knots, spots, veins) because at 128x96 SIFT finds too few features
-on smooth patterns for joint SfM of the captures (issue 3) to register every view.
+on smooth patterns for joint SfM of the captures to register every view.
 """
 
 from __future__ import annotations

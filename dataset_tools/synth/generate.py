@@ -1,4 +1,6 @@
-"""Write one synthetic scene folder in the Inpaint360GS layout (DESIGN.md §3) plus its ground truth under gt/.
+"""Write one synthetic scene folder in the Inpaint360GS layout plus its ground truth under gt/.
+
+Layout (docs/architecture.md, "Scene format"; names in ``inpaint360gs.core.layout``)::
 
     <name>/images/IMG_%04d.png, test_%04d.png   object-inclusive orbit captures, object-free captures
     <name>/sparse/0/                            COLMAP binary model from the true poses (pycolmap)
@@ -40,7 +42,7 @@ def _json(path: Path, obj) -> None:
 
 
 def scene_metadata(scene: SynthScene) -> dict:
-    """``scene.json`` (DESIGN.md §3)."""
+    """``scene.json`` (docs/architecture.md, "Scene format")."""
     spec = scene.spec
     return {
         "name": spec.name,
@@ -71,10 +73,10 @@ def objects_metadata(scene: SynthScene) -> list[dict]:
 
 def cameras_metadata(scene: SynthScene) -> dict:
     """``gt/cameras.json``: the shared PINHOLE intrinsics and every image's exact world->camera pose."""
-    v0 = scene.views[0]
+    c0 = scene.views[0].camera
     return {
-        "model": "PINHOLE", "width": v0.width, "height": v0.height,
-        "fx": v0.fx, "fy": v0.fy, "cx": v0.cx, "cy": v0.cy,
+        "model": "PINHOLE", "width": c0.width, "height": c0.height,
+        "fx": c0.fx, "fy": c0.fy, "cx": c0.cx, "cy": c0.cy,
         "convention": "x_cam = R x_world + t; x right, y down, z forward; pixel (i, j) centre at (j + 0.5, i + 0.5)",
         "images": [v.to_json() for v in sorted(scene.views, key=lambda v: v.name)],
     }

@@ -30,7 +30,7 @@ def render(world: World, view: View, supersample: int = SUPERSAMPLE) -> Renderin
     """Ray-cast ``view`` in ``world``; every pixel hits a surface (the scenes are enclosed)."""
     if supersample < 1 or supersample % 2 == 0:
         raise ValueError("supersample must be odd (its middle sample is the pixel centre)")
-    W, H, s = view.width, view.height, supersample
+    W, H, s = view.camera.width, view.camera.height, supersample
     offs = (np.arange(s) + 0.5) / s
     mid = s // 2
     rgb = np.zeros((H, W, 3))
@@ -38,7 +38,7 @@ def render(world: World, view: View, supersample: int = SUPERSAMPLE) -> Renderin
     inst = np.zeros((H, W), dtype=np.uint8)
     pts = np.zeros((H, W, 3))
     origin = view.center[None, :]
-    rad_per_sample = 1.0 / (view.fx * s)
+    rad_per_sample = 1.0 / (view.camera.fx * s)
     rows_per_chunk = max(1, CHUNK_RAYS // (W * s * s))
     for i0 in range(0, H, rows_per_chunk):
         i1 = min(H, i0 + rows_per_chunk)

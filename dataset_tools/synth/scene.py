@@ -11,8 +11,6 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-import numpy as np
-
 from dataset_tools.synth.cameras import View, capture_views
 from dataset_tools.synth.catalogue import scene_spec
 from dataset_tools.synth.raycast import World
@@ -92,12 +90,9 @@ def load_scene(scene_dir: str | Path) -> SynthScene:
         spec = scene_spec(meta["name"])
         seed, reduced = int(prov["seed"]), bool(prov["reduced"])
         cams = json.loads(cj.read_text())
-        views = [
-            View(c["name"], np.asarray(c["R"], dtype=np.float64), np.asarray(c["t"], dtype=np.float64),
-                 float(cams["fx"]), float(cams["fy"]), float(cams["cx"]), float(cams["cy"]),
-                 int(cams["width"]), int(cams["height"]), bool(c["object_free"]))
-            for c in cams["images"]
-        ]
+        K = (float(cams["fx"]), float(cams["fy"]), float(cams["cx"]), float(cams["cy"]))
+        views = [View.at(c["name"], c["R"], c["t"], K, int(cams["width"]), int(cams["height"]), bool(c["object_free"]))
+                 for c in cams["images"]]
     except (KeyError, TypeError, ValueError, json.JSONDecodeError) as e:
         raise InputError(f"malformed synthetic scene metadata ({type(e).__name__}: {e})", scene_dir) from None
     n_points = REDUCED_POINTS if reduced else spec.n_points

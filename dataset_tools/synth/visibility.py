@@ -66,7 +66,7 @@ def unseen_mask(scene, view: View, points: np.ndarray) -> np.ndarray:
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     seen = seen_by_views(scene.world_full, nearest_first(scene.inclusive_views, view), pts)
-    return np.where(seen, 0, 255).astype(np.uint8).reshape(view.height, view.width)
+    return np.where(seen, 0, 255).astype(np.uint8).reshape(view.camera.height, view.camera.width)
 
 
 def seen_by_object_inclusive_views(scene: "str | Path | object", points: np.ndarray, tol: float = 0.0) -> np.ndarray:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.build.unseen import (
+from dataset_tools.capture.unseen import (
     UnseenConfig,
     derive_unseen_masks,
     import_unseen_masks,

@@ -1,17 +1,20 @@
 """``inpaint360gs-dataset build CAPTURES OUT``: joint COLMAP of object-inclusive + object-free photos.
 
 CAPTURES is either two folders, ``with_objects/`` and ``without_objects/``, or one folder in which the
-object-free photos are named ``test_*``. See dataset_tools/build/README.md.
+object-free photos are named ``test_*``. See dataset_tools/capture/README.md.
+
+Each option's ``dest`` is the name of the ``BuildConfig``, ``CaptureConfig`` or ``SfMConfig`` field it sets.
 """
 
 from __future__ import annotations
 
 import argparse
+from dataclasses import fields
 from pathlib import Path
 
-from dataset_tools.build.captures import CaptureConfig
-from dataset_tools.build.colmap import SUPPORTED_MODELS, SfMConfig
-from dataset_tools.build.pipeline import BuildConfig, build_dataset
+from dataset_tools.capture.captures import CaptureConfig
+from dataset_tools.capture.colmap import SUPPORTED_MODELS, SfMConfig
+from dataset_tools.capture.pipeline import BuildConfig, build_dataset
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -20,7 +23,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--matcher", choices=["exhaustive", "sequential", "auto"], default="auto",
                    help="pair selection: exhaustive for small sets, sequential (photos named in capture order) "
                         "for large ones; auto picks exhaustive up to --exhaustive-max images (default: auto)")
-    p.add_argument("--exhaustive-max", type=int, default=150, help="auto: largest set matched exhaustively (150)")
+    p.add_argument("--exhaustive-max", dest="exhaustive_max_images", type=int, default=150, metavar="N",
+                   help="auto: largest set matched exhaustively (150)")
     p.add_argument("--overlap", type=int, default=10, help="sequential: neighbours per side (10)")
     p.add_argument("--cross-pairs", type=int, default=20,
                    help="sequential: object-inclusive partners per object-free photo (20)")
@@ -45,45 +49,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--skip-unreadable", action="store_true", help="skip corrupt photos (reported) instead of failing")
     p.add_argument("--require-all-registered", action="store_true",
                    help="fail when a photo cannot be registered (default: skip it and report)")
-    p.add_argument("--max-features", type=int, default=8192, help="SIFT features per image (8192)")
-    p.add_argument("--threads", type=int, default=2, help="COLMAP threads (2)")
+    p.add_argument("--max-features", dest="max_num_features", type=int, default=8192, metavar="N",
+                   help="SIFT features per image (8192)")
+    p.add_argument("--threads", dest="num_threads", type=int, default=2, metavar="N", help="COLMAP threads (2)")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--name", default=None, help="scene name in scene.json (default: OUT's folder name)")
+    p.add_argument("--name", dest="scene_name", default=None, help="scene name in scene.json (default: OUT's folder name)")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     p.add_argument("--verbose", action="store_true", help="show COLMAP's log")
     p.add_argument("--no-progress", action="store_true")
 
 
+def _config(cls, args: argparse.Namespace, **given):
+    """``cls(**given)``, its other fields taken from the options of the same name (the rest keep their defaults)."""
+    options = vars(args)
+    return cls(**given, **{f.name: options[f.name] for f in fields(cls) if f.name in options and f.name not in given})
+
+
 def config_from_args(args: argparse.Namespace) -> BuildConfig:
-    return BuildConfig(
-        captures=CaptureConfig(
-            with_dir=args.with_dir,
-            without_dir=args.without_dir,
-            test_prefix=args.test_prefix,
-            skip_unreadable=args.skip_unreadable,
-        ),
-        sfm=SfMConfig(
-            camera_model=args.camera_model,
-            camera_params=args.camera_params,
-            matcher=args.matcher,
-            exhaustive_max_images=args.exhaustive_max,
-            overlap=args.overlap,
-            cross_pairs=args.cross_pairs,
-            max_num_features=args.max_features,
-            num_threads=args.threads,
-            seed=args.seed,
-            verbose=args.verbose,
-        ),
-        downscale=tuple(args.downscale),
-        unseen_masks=args.unseen_masks,
-        remove_unseen_points=args.remove_unseen_points,
-        min_train_views=args.min_train_views,
-        min_train_angle=args.min_train_angle,
-        require_all_registered=args.require_all_registered,
-        overwrite=args.overwrite,
-        scene_name=args.name,
-        progress=not args.no_progress,
-    )
+    return _config(BuildConfig, args, captures=_config(CaptureConfig, args), sfm=_config(SfMConfig, args),
+                   downscale=tuple(args.downscale), progress=not args.no_progress)
 
 
 def run(args: argparse.Namespace) -> int:

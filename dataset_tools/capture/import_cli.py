@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from dataset_tools.build.importers import LAYOUTS, import_360usid, import_spinnerf
+from dataset_tools.capture.importers import LAYOUTS, import_360usid, import_spinnerf
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

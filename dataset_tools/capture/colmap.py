@@ -21,9 +21,8 @@ from __future__ import annotations
 
 import contextlib
 import itertools
-import struct
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,9 +30,9 @@ import numpy as np
 import pycolmap
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.colmap import PINHOLE_MODELS, colmap_log
 
-# Camera models without distortion: nothing to undistort.
-PINHOLE_MODELS = ("SIMPLE_PINHOLE", "PINHOLE")
+# SfM camera models: the distortion-free ones (nothing to undistort), then those undistorted to PINHOLE.
 SUPPORTED_MODELS = PINHOLE_MODELS + ("SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
 
 ProgressFn = Callable[[str, int, int], None]  # (stage, done, total)
@@ -74,17 +73,6 @@ class SfMResult:
     matcher: str  # the strategy actually used
     num_pairs: int
     timings: dict[str, float] = field(default_factory=dict)
-
-
-@contextlib.contextmanager
-def colmap_log(verbose: bool) -> Iterator[None]:
-    """Silence COLMAP's INFO/WARNING log unless asked for (progress bars show what happens)."""
-    old = pycolmap.logging.minloglevel
-    pycolmap.logging.minloglevel = 0 if verbose else 2
-    try:
-        yield
-    finally:
-        pycolmap.logging.minloglevel = old
 
 
 def _pair_list(names: Sequence[str], free: set[str], cfg: SfMConfig) -> tuple[list[tuple[str, str]], str]:
@@ -258,52 +246,3 @@ def undistort_mask(mask: np.ndarray, camera: pycolmap.Camera) -> np.ndarray:
     bitmap = pycolmap.Bitmap.from_array(np.ascontiguousarray(mask.astype(np.uint8) * 255))
     out, _ = pycolmap.undistort_image(undistortion_options(), bitmap, camera)
     return out.to_array() >= 128
-
-
-def to_pinhole(rec: pycolmap.Reconstruction) -> None:
-    """Rewrite SIMPLE_PINHOLE cameras as PINHOLE (fx = fy = f), the model the scene layout uses."""
-    for cam in rec.cameras.values():
-        if cam.model_name == "SIMPLE_PINHOLE":
-            f, cx, cy = cam.params
-            new = pycolmap.Camera(
-                model="PINHOLE", width=cam.width, height=cam.height, params=[f, f, cx, cy], camera_id=cam.camera_id
-            )
-            cam.model = new.model
-            cam.params = new.params
-
-
-# Smallest record of each COLMAP binary file (bytes), for a cheap plausibility check of the counts.
-_MIN_RECORD = {"cameras.bin": 24, "images.bin": 73, "points3D.bin": 51, "rigs.bin": 8, "frames.bin": 8}
-
-
-def read_model(path: str | Path) -> pycolmap.Reconstruction:
-    """Read a COLMAP model folder, turning corrupt files into InputError.
-
-    pycolmap trusts the element counts at the head of binary files: a truncated or garbage file can
-    make it allocate for minutes and then fail, so the counts are checked against the file sizes first.
-    """
-    path = Path(path)
-    if not path.is_dir():
-        raise InputError("sparse model folder missing", path)
-    has_bin = all((path / f).is_file() for f in ("cameras.bin", "images.bin", "points3D.bin"))
-    has_txt = all((path / f).is_file() for f in ("cameras.txt", "images.txt", "points3D.txt"))
-    if not (has_bin or has_txt):
-        raise InputError("no cameras/images/points3D .bin or .txt files", path)
-    if has_bin:
-        for name, min_rec in _MIN_RECORD.items():
-            f = path / name
-            if not f.is_file():
-                continue
-            size = f.stat().st_size
-            if size < 8:
-                raise InputError(f"truncated ({size} bytes)", f)
-            with f.open("rb") as fh:
-                (count,) = struct.unpack("<Q", fh.read(8))
-            if count * min_rec > size - 8:
-                raise InputError(f"corrupt: header claims {count} entries, the file holds at most {(size - 8) // min_rec}", f)
-    try:
-        with colmap_log(False):
-            return pycolmap.Reconstruction(path)
-    except (RuntimeError, ValueError, IndexError, MemoryError, OSError) as e:
-        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
-        raise InputError(f"unreadable COLMAP model ({msg})", path) from None

@@ -20,14 +20,7 @@ from pathlib import Path
 from PIL import Image
 
 from inpaint360gs.core.errors import InputError
-
-IMAGE_SUFFIXES = (".jpg", ".jpeg", ".png")
-TEST_PREFIX = "test_"
-
-
-def is_test_name(name: str, prefix: str = TEST_PREFIX) -> bool:
-    """True for object-free (ground-truth) views: their file name starts with ``test_`` (DESIGN.md §3)."""
-    return Path(name).name.startswith(prefix)
+from inpaint360gs.core.layout import IMAGE_SUFFIXES, TEST_PREFIX, is_image_name, is_test_name
 
 
 @dataclass(frozen=True)
@@ -75,7 +68,7 @@ def _list_images(folder: Path, skipped: dict[str, str]) -> list[Path]:
             continue
         if p.is_dir():
             skipped[str(p)] = "sub-folder ignored"
-        elif p.suffix.lower() in IMAGE_SUFFIXES:
+        elif is_image_name(p.name):
             files.append(p)
         else:
             skipped[str(p)] = f"not an image ({', '.join(IMAGE_SUFFIXES)})"

@@ -6,9 +6,9 @@ import argparse
 import json
 from pathlib import Path
 
-from dataset_tools.build.colmap import SfMConfig
-from dataset_tools.build.pipeline import BuildConfig
-from dataset_tools.build.synth_colmap import build_synthetic_with_colmap
+from dataset_tools.capture.colmap import SfMConfig
+from dataset_tools.capture.pipeline import BuildConfig
+from dataset_tools.capture.synth_colmap import build_synthetic_with_colmap
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

@@ -1,4 +1,5 @@
-"""``build``: raw captures -> an Inpaint360GS scene folder (DESIGN.md §3), written atomically.
+"""``build``: raw captures -> an Inpaint360GS scene folder (docs/architecture.md, "Scene format"),
+written atomically.
 
 Steps (paper supp. Sec. A): check the photos; joint SfM of all of them with one shared camera;
 undistort to PINHOLE when the camera model has distortion; remove leaked points (and optionally
@@ -16,21 +17,15 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from dataset_tools.build.captures import CaptureConfig, CaptureSet, collect_captures
-from dataset_tools.build.colmap import SfMConfig, needs_undistortion, run_sfm, to_pinhole, undistort, undistort_mask
-from dataset_tools.build.layout import (
-    copy_images,
-    find_mask,
-    provenance,
-    read_mask,
-    write_downscaled,
-    write_json,
-    write_mask,
-)
-from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points, remove_points_in_masks
-from dataset_tools.build.progress import StageProgress
+from dataset_tools.capture.captures import CaptureConfig, CaptureSet, collect_captures
+from dataset_tools.capture.colmap import SfMConfig, needs_undistortion, run_sfm, undistort, undistort_mask
+from dataset_tools.capture.layout import copy_images, provenance, read_mask, write_downscaled, write_json
+from dataset_tools.capture.leaks import recolor_from_inclusive_views, remove_leaked_points, remove_points_in_masks
+from dataset_tools.capture.progress import StageProgress
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.colmap import to_pinhole
+from inpaint360gs.io.images import find_mask, write_mask
 
 
 @dataclass
@@ -101,7 +96,7 @@ def _load_unseen_masks(cset: CaptureSet, mask_dir: Path) -> dict[str, np.ndarray
         raise InputError("unseen-mask folder does not exist", mask_dir)
     masks = {}
     for c in cset.object_free:
-        path = find_mask(mask_dir, [Path(c.out_name).stem, c.source.stem])
+        path = find_mask(mask_dir, [c.out_name, c.source.name])
         if path is None:
             raise InputError(f"no unseen mask for {c.source.name} (expected {Path(c.out_name).stem}.png)", mask_dir)
         m = read_mask(path)

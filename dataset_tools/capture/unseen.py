@@ -1,8 +1,8 @@
 """Unseen masks of the object-free test views: derive them from the reconstruction, or import the user's.
 
 An unseen pixel of a test_ view shows a surface that no object-inclusive (training) view saw while
-the objects were present (DESIGN.md §3 ``unseen_mask/``: 255 = unseen). The paper prepares these
-masks for its dataset (supp. Sec. A) without saying how; here is a geometric derivation that needs
+the objects were present (``unseen_mask/`` of the scene layout: 255 = unseen). The paper prepares
+these masks for its dataset (supp. Sec. A) without saying how; here is a geometric derivation that needs
 only the built scene and an object mask per training view:
 
 1. depth of every test pixel: inverse depth interpolated linearly (exact on planes) between the
@@ -31,11 +31,13 @@ import numpy as np
 import pycolmap
 from scipy.interpolate import LinearNDInterpolator, NearestNDInterpolator
 
-from dataset_tools.build.captures import IMAGE_SUFFIXES, is_test_name
-from dataset_tools.build.colmap import PINHOLE_MODELS, read_model, undistort_mask
-from dataset_tools.build.layout import find_mask, read_mask, write_mask
+from dataset_tools.capture.colmap import undistort_mask
+from dataset_tools.capture.layout import read_mask
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.layout import TEST_PREFIX, is_image_name, is_test_name
 from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.colmap import PINHOLE_MODELS, read_model
+from inpaint360gs.io.images import find_mask, write_mask
 
 
 @dataclass
@@ -197,8 +199,8 @@ def load_object_masks(scene: str | Path, mask_dir: str | Path) -> dict[str, np.n
         raise InputError("object-mask folder does not exist", mask_dir)
     masks = {}
     for p in sorted((scene / "images").iterdir()):
-        if p.suffix.lower() in IMAGE_SUFFIXES and not is_test_name(p.name):
-            path = find_mask(mask_dir, [p.stem])
+        if is_image_name(p.name) and not is_test_name(p.name):
+            path = find_mask(mask_dir, [p.name])
             if path is None:
                 raise InputError(f"no object mask for {p.name} (expected {p.stem}.png)", mask_dir)
             masks[p.name] = _fit_mask(scene, read_mask(path), path, p)
@@ -215,11 +217,11 @@ def import_unseen_masks(scene: str | Path, mask_dir: str | Path) -> tuple[dict[s
     if not mask_dir.is_dir():
         raise InputError("unseen-mask folder does not exist", mask_dir)
     masks, used = {}, set()
-    tests = [p for p in sorted((scene / "images").iterdir()) if p.suffix.lower() in IMAGE_SUFFIXES and is_test_name(p.name)]
+    tests = [p for p in sorted((scene / "images").iterdir()) if is_image_name(p.name) and is_test_name(p.name)]
     if not tests:
         raise InputError("no test_ images", scene / "images")
     for p in tests:
-        path = find_mask(mask_dir, [p.stem, p.stem.removeprefix("test_")])
+        path = find_mask(mask_dir, [p.name, p.name.removeprefix(TEST_PREFIX)])
         if path is None:
             raise InputError(f"no unseen mask for {p.name} (expected {p.stem}.png)", mask_dir)
         masks[p.stem] = _fit_mask(scene, read_mask(path), path, p)

@@ -1,4 +1,5 @@
-"""Import released inpainting datasets into the Inpaint360GS layout (DESIGN.md §3), removing their point leaks.
+"""Import released inpainting datasets into the Inpaint360GS layout (docs/architecture.md, "Scene format"),
+removing their point leaks.
 
 Source layouts (from the public loaders of the two projects):
 
@@ -25,12 +26,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from dataset_tools.build.captures import IMAGE_SUFFIXES, TEST_PREFIX, is_test_name, read_image_size
-from dataset_tools.build.colmap import PINHOLE_MODELS, read_model, to_pinhole
-from dataset_tools.build.layout import find_mask, provenance, read_image, write_json, write_mask
-from dataset_tools.build.leaks import recolor_from_inclusive_views, remove_leaked_points
+from dataset_tools.capture.captures import read_image_size
+from dataset_tools.capture.layout import provenance, read_mask, write_json
+from dataset_tools.capture.leaks import recolor_from_inclusive_views, remove_leaked_points
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.layout import TEST_PREFIX, is_image_name, is_test_name
 from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.colmap import PINHOLE_MODELS, read_model, to_pinhole
+from inpaint360gs.io.images import find_mask, write_mask
 
 LAYOUTS = ("360usid", "spinnerf")
 
@@ -56,14 +59,7 @@ class ImportReport:
 def _images(folder: Path) -> list[Path]:
     if not folder.is_dir():
         raise InputError("folder missing", folder)
-    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
-
-
-def _binary(path: Path, threshold: int) -> np.ndarray:
-    img = read_image(path)
-    if img.ndim == 3:
-        img = img[..., :3].max(axis=2)
-    return img > threshold
+    return sorted(p for p in folder.iterdir() if p.is_file() and is_image_name(p.name))
 
 
 def _write_scene(
@@ -141,10 +137,10 @@ def import_360usid(src: str | Path, out: str | Path, overwrite: bool = False) ->
         if p.name in sources or new in {v[1] for v in sources.values()}:
             raise InputError("the same file name is in images/ and test_images/", p)
         sources[p.name] = (p, new)
-        mpath = find_mask(src / "unseen_masks", [p.stem]) if (src / "unseen_masks").is_dir() else None
+        mpath = find_mask(src / "unseen_masks", [p.name]) if (src / "unseen_masks").is_dir() else None
         if mpath is None:
             raise InputError(f"no unseen mask for {p.name}", src / "unseen_masks")
-        m = _binary(mpath, 127)
+        m = read_mask(mpath)
         w, h = read_image_size(p)
         if m.shape != (h, w):
             raise InputError(f"mask is {m.shape[1]}x{m.shape[0]}, image {p.name} is {w}x{h}", mpath)
@@ -171,8 +167,8 @@ def import_spinnerf(src: str | Path, out: str | Path, n_test: int = 40, overwrit
             raise InputError(f"object-inclusive image starts with '{TEST_PREFIX}'", p)
         sources[p.name] = (p, new)
         if test:
-            mpath = find_mask(labels, [p.stem])
+            mpath = find_mask(labels, [p.name])
             if mpath is None:
                 raise InputError(f"no label mask for object-free view {p.name}", labels)
-            masks[new] = _fit(_binary(mpath, 0), read_image_size(p))  # labels are 1 (or 255) inside
+            masks[new] = _fit(read_mask(mpath), read_image_size(p))  # labels are 1 (or 255) inside
     return _write_scene(out, "spinnerf", src, sources, masks, overwrite)

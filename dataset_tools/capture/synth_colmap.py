@@ -1,6 +1,6 @@
 """A synthetic benchmark scene whose poses and sparse points come from COLMAP instead of the generator.
 
-The workflow's ``poses: colmap`` switch (issue 3): the generated scene is exported as plain photos,
+The workflow's ``poses: colmap`` switch: the generated scene is exported as plain photos,
 ``build`` reconstructs it (joint SfM, one shared camera, leak removal), and the generator's exact
 unseen masks, object list and ``gt/`` are carried over. The camera model is SIMPLE_PINHOLE: the
 generator renders an ideal pinhole with square pixels, so there is nothing to undistort and every
@@ -18,13 +18,13 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.build.colmap import read_model
-from dataset_tools.build.layout import write_json
-from dataset_tools.build.pipeline import BuildConfig, BuildReport, build_dataset
-from dataset_tools.build.posecheck import pose_accuracy, reconstruction_poses, similarity_to_true
-from dataset_tools.build.synth_export import export_raw_captures, orbit_radius, true_poses
+from dataset_tools.capture.layout import write_json
+from dataset_tools.capture.pipeline import BuildConfig, BuildReport, build_dataset
+from dataset_tools.capture.posecheck import pose_accuracy, reconstruction_poses, similarity_to_true
+from dataset_tools.capture.synth_export import export_raw_captures, orbit_radius, true_poses
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.colmap import read_model
 
 
 def build_synthetic_with_colmap(

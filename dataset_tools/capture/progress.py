@@ -1,4 +1,4 @@
-"""One tqdm bar per stage, fed by ``(stage, done, total)`` callbacks (DESIGN.md §6: long work shows progress)."""
+"""One tqdm bar per stage, fed by ``(stage, done, total)`` callbacks: long work shows progress."""
 
 from __future__ import annotations
 

@@ -3,13 +3,13 @@
 The joint SfM triangulates points from all images, including the object-free ground-truth views. A
 point that only object-free views observe (typically the floor under a removed object) tells a
 method what the hidden region looks like, so it must go (paper Sec. 4 "test-view point clouds are
-excluded from training" and supp. Sec. A; DESIGN.md §3). By default a point also goes when only ONE
-object-inclusive image observes it: one ray does not fix a depth, so its position came from the
-object-free views (measured on the synthetic benchmark: 34-132 such points per scene); and when the
-object-inclusive rays meet at less than ``min_inclusive_angle_deg`` (1.5°, the minimum triangulation
-angle of COLMAP's mapper): nearly parallel rays do not fix it either, so a training-only
-reconstruction would not have that point (4-65 per synthetic scene; on the two scenes inspected every
-one of them was also observed by object-free views).
+excluded from training" and supp. Sec. A; docs/architecture.md, "Scene format"). By default a point
+also goes when only ONE object-inclusive image observes it: one ray does not fix a depth, so its
+position came from the object-free views (measured on the synthetic benchmark: 34-132 such points
+per scene); and when the object-inclusive rays meet at less than ``min_inclusive_angle_deg`` (1.5°,
+the minimum triangulation angle of COLMAP's mapper): nearly parallel rays do not fix it either, so a
+training-only reconstruction would not have that point (4-65 per synthetic scene; on the two scenes
+inspected every one of them was also observed by object-free views).
 """
 
 from __future__ import annotations
@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 import pycolmap
 
-from dataset_tools.build.captures import is_test_name
+from inpaint360gs.core.layout import is_test_name
+from inpaint360gs.io.images import read_image
 
 
 def default_is_inclusive(name: str) -> bool:
@@ -197,10 +198,6 @@ def recolor_from_inclusive_views(
     changed colour. Every kept point has an object-inclusive observation (``remove_leaked_points``);
     one without keeps its colour.
     """
-    import cv2
-
-    from dataset_tools.build.layout import read_image
-
     pids = np.array(sorted(rec.points3D), dtype=np.int64)
     sums = np.zeros((len(pids), 3))
     counts = np.zeros(len(pids))
@@ -208,7 +205,9 @@ def recolor_from_inclusive_views(
         obs = [(p.point3D_id, p.xy) for p in im.points2D if p.has_point3D()] if is_inclusive(im.name) else []
         if not obs:
             continue
-        img = read_image(Path(image_dir) / im.name, cv2.IMREAD_COLOR)[..., ::-1]  # BGR -> RGB
+        img = read_image(Path(image_dir) / im.name)  # RGB
+        if img.dtype == np.uint16:
+            img = img >> 8  # 8-bit colours, as COLMAP reads 16-bit images
         h, w = img.shape[:2]
         row = np.searchsorted(pids, [pid for pid, _ in obs])
         xy = np.floor(np.array([xy for _, xy in obs])).astype(int)

@@ -35,7 +35,7 @@ class PoseAccuracy:
         return asdict(self)
 
     def passes(self, center_pct: float = 1.0, rot_deg: float = 0.5) -> bool:
-        """The issue-3 targets: centre error <= 1% of the orbit radius, rotation error <= 0.5°."""
+        """The targets of the COLMAP path: centre error <= 1% of the orbit radius, rotation error <= 0.5°."""
         return not self.missing and self.center_err_max_pct <= center_pct and self.rot_err_max_deg <= rot_deg
 
 

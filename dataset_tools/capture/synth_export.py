@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.build.captures import TEST_PREFIX, is_test_name
-from dataset_tools.build.colmap import read_model
-from dataset_tools.build.layout import read_image, write_mask
-from dataset_tools.build.posecheck import Pose, PoseAccuracy, pose_accuracy, reconstruction_poses, similarity_to_true
+from dataset_tools.capture.posecheck import Pose, PoseAccuracy, pose_accuracy, reconstruction_poses, similarity_to_true
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.layout import TEST_PREFIX, is_test_name
 from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.colmap import read_model
+from inpaint360gs.io.images import read_binary_mask, read_mask, write_mask
 
 
 def export_raw_captures(
@@ -57,7 +57,7 @@ def export_raw_captures(
                 (tmp / "with_objects").mkdir(exist_ok=True)
                 shutil.copy2(p, tmp / "with_objects" / p.name)
                 if object_masks:
-                    inst = read_image(scene_dir / "gt" / "instance" / f"{p.stem}.png")
+                    inst = read_mask(scene_dir / "gt" / "instance" / f"{p.stem}.png")  # object ids
                     write_mask(tmp / "object_masks" / f"{p.stem}.png", np.isin(inst, targets))
     return Path(out)
 
@@ -114,7 +114,7 @@ def surface_samples(truth: str | Path) -> tuple[np.ndarray, np.ndarray]:
         d = np.load(truth / "gt" / "depth" / f"{stem}.npy").reshape(-1).astype(np.float64)
         ok = np.isfinite(d) & (d > 0)
         if c["object_free"]:
-            ok &= read_image(truth / "unseen_mask" / f"{stem}.png").reshape(-1) > 127
+            ok &= read_binary_mask(truth / "unseen_mask" / f"{stem}.png").reshape(-1)
         P = (rays[ok] * d[ok, None] - t) @ R
         (unseen if c["object_free"] else seen).append(P)
     return np.concatenate(seen), (np.concatenate(unseen) if unseen else np.zeros((0, 3)))
@@ -151,8 +151,6 @@ def leak_check(truth: str | Path, points: np.ndarray, tolerance: float | None = 
 
 def object_free_observations(rec, point_ids) -> np.ndarray:
     """Per point id: how many distinct object-free (``test_*``) images observe it."""
-    from dataset_tools.build.captures import is_test_name
-
     return np.array([len({el.image_id for el in rec.point3D(pid).track.elements if is_test_name(rec.image(el.image_id).name)})
                      for pid in point_ids], int)
 

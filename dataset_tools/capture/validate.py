@@ -1,4 +1,5 @@
-"""``validate``: check a scene folder against the Inpaint360GS layout (DESIGN.md §3) and say what is wrong.
+"""``validate``: check a scene folder against the Inpaint360GS layout (docs/architecture.md, "Scene format")
+and say what is wrong.
 
 Reads the folder with pycolmap directly (no dependency on the method's scene loader). Every check
 yields PASS, WARN or FAIL with a one-line reason; the scene is valid when nothing FAILs.
@@ -12,13 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.build.captures import IMAGE_SUFFIXES, is_test_name, read_image_size
-from dataset_tools.build.colmap import PINHOLE_MODELS, read_model
-from dataset_tools.build.layout import find_mask, read_image, scaled_size
-from dataset_tools.build.leaks import leaked_point_ids
+from dataset_tools.capture.captures import read_image_size
+from dataset_tools.capture.layout import scaled_size
+from dataset_tools.capture.leaks import leaked_point_ids
 from inpaint360gs.core.errors import InputError
-
-LLFFHOLD = 8  # every 8th non-test image (sorted by name) is a held-out view (DESIGN.md §3)
+from inpaint360gs.core.layout import LLFFHOLD, assign_splits, is_image_name
+from inpaint360gs.io.colmap import PINHOLE_MODELS, read_model
+from inpaint360gs.io.images import find_mask, read_mask
 
 
 @dataclass
@@ -62,19 +63,20 @@ def _few(items, n: int = 3) -> str:
 
 def _check_masks(report: ValidationReport, name: str, folder: Path, stems: dict[str, tuple[int, int]],
                  required: bool) -> None:
-    """Each stem needs ``folder/<stem>.png`` of the given (w, h); ``required`` turns missing into FAIL."""
+    """Each image stem needs a mask ``folder/<stem>.png`` (or another mask suffix) of the given (w, h);
+    ``required`` turns missing into FAIL."""
     if not folder.is_dir():
         report.add(name, "fail" if required else "pass",
                    f"{folder.name}/ missing" if required else f"{folder.name}/ absent (optional)")
         return
     missing, wrong, nonbinary = [], [], []
     for stem, (w, h) in stems.items():
-        path = find_mask(folder, [stem])
+        path = find_mask(folder, [f"{stem}.png"])
         if path is None:
             missing.append(stem)
             continue
         try:
-            img = read_image(path)
+            img = read_mask(path)
         except InputError:
             wrong.append(f"{path.name} unreadable")
             continue
@@ -107,17 +109,17 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
 
     # --- images
     img_dir = scene / "images"
-    files = sorted(p.name for p in img_dir.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES) if img_dir.is_dir() else []
+    files = sorted(p.name for p in img_dir.iterdir() if is_image_name(p.name)) if img_dir.is_dir() else []
     if not files:
-        report.add("images", "fail", "images/ missing or holds no .jpg/.png")
-    test_files = [f for f in files if is_test_name(f)]
-    other = [f for f in files if not is_test_name(f)]
-    held_out = other[::LLFFHOLD]
-    n_train = len(other) - len(held_out)
+        report.add("images", "fail", "images/ missing or holds no image files")
+    split = assign_splits(files)
+    test_files = [f for f in files if split[f] == "test"]
+    other = [f for f in files if split[f] != "test"]
+    n_train, n_held = sum(s == "train" for s in split.values()), sum(s == "holdout" for s in split.values())
     if files:
         ok_split = bool(test_files) and n_train > 0
         report.add("split", "pass" if ok_split else "fail",
-                   f"{n_train} training + {len(held_out)} held-out (llffhold={LLFFHOLD}) + {len(test_files)} test_ views"
+                   f"{n_train} training + {n_held} held-out (llffhold={LLFFHOLD}) + {len(test_files)} test_ views"
                    + ("" if ok_split else " (need >= 1 training and >= 1 test_ view)"))
 
     # --- sparse model
@@ -209,7 +211,7 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
         _check_masks(report, "object masks", scene / "object_mask",
                      {Path(f).stem: sizes[Path(f).stem] for f in other if Path(f).stem in sizes}, required=False)
 
-    # --- point leaks (DESIGN.md §3: no point that only a test view sees)
+    # --- point leaks (docs/architecture.md, "Scene format": no point that only a test view sees)
     if rec.num_points3D() == 0:
         report.add("sparse points", "fail", "no 3D points (3DGS is initialised from them)")
     leaked = leaked_point_ids(rec)

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from dataset_tools.build.validate import validate_scene
+from dataset_tools.capture.validate import validate_scene
 from inpaint360gs.io.atomic import write_text
 
 

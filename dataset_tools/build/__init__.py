@@ -1,2 +1,0 @@
-"""Building Inpaint360GS scene folders from raw captures (issue 3): joint COLMAP with one shared camera,
-undistortion, point-leak removal, unseen masks, validation and importers. See README.md here."""
