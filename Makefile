@@ -1,5 +1,5 @@
 # The two commands of the README: `make benchmark` (main job) and `make test` (tests).
-# Both create the virtual environment on first use (DESIGN.md §5: CPU torch pinned first, so nothing
+# Both create the virtual environment on first use (docs/architecture.md, "Environment": CPU torch pinned first, so nothing
 # pulls a CUDA build), then run inside it.
 
 PYTHON ?= python3

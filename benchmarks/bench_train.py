@@ -1,4 +1,4 @@
-"""3DGS training on synthetic benchmark scenes: held-out PSNR/SSIM, time and peak memory (issue 2 numbers).
+"""3DGS training on synthetic benchmark scenes: held-out PSNR/SSIM, time and peak memory.
 
 Each scene is generated once into ``--work`` (reused on later runs), then trained by the
 ``inpaint360gs train`` CLI in its own process, so wall time includes start-up and peak RSS is that

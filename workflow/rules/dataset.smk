@@ -1,4 +1,4 @@
-# Building the benchmark scenes (issue 2: synthetic generator; issue 3: COLMAP path).
+# Building the benchmark scenes (synthetic generator; optional COLMAP rebuild of their poses).
 
 
 rule synth_scene:
@@ -6,16 +6,17 @@ rule synth_scene:
     output:
         scene_json=f"{DATA}/{{scene}}/scene.json",
     params:
+        data=DATA,
         flags=synth_flags(),
     log:
         f"{OUT}/logs/synth_{{scene}}.log",
     shell:
-        "inpaint360gs-dataset synth {DATA} --scenes {wildcards.scene} {params.flags} --overwrite --quiet > {log} 2>&1"
+        "inpaint360gs-dataset synth {params.data:q} --scenes {wildcards.scene} {params.flags} --overwrite --quiet > {log:q} 2>&1"
 
 
 rule colmap_scene:
     """Re-derive a generated scene's poses and sparse points with joint pycolmap SfM on its images only
-    (the dataset-building path of issue 3; `poses: colmap`). Records pose accuracy vs the true poses."""
+    (the dataset-building path; `poses: colmap`). Records pose accuracy vs the true poses."""
     input:
         scene_json=f"{DATA}/{{scene}}/scene.json",
     output:
@@ -28,4 +29,4 @@ rule colmap_scene:
     log:
         f"{OUT}/logs/colmap_{{scene}}.log",
     shell:
-        "inpaint360gs-dataset synth-colmap {params.src} {params.dst} --seed {params.seed} --overwrite --no-progress > {log} 2>&1"
+        "inpaint360gs-dataset synth-colmap {params.src:q} {params.dst:q} --seed {params.seed} --overwrite --no-progress > {log:q} 2>&1"

@@ -21,9 +21,11 @@ rule train_3dgs:
     log:
         f"{OUT}/logs/train_3dgs_{{scene}}.log",
     shell:
-        "inpaint360gs train {params.scene_dir} {params.out} --iterations {params.iterations}"
+        # --resume --overwrite: an interrupted run continues from its checkpoint; a checkpoint made
+        # with other settings or another scene is discarded and training starts afresh
+        "inpaint360gs train {params.scene_dir:q} {params.out:q} --iterations {params.iterations}"
         " --schedule-scale {params.schedule_scale} --max-gaussians {params.max_gaussians}"
-        " --backend {params.backend} --seed {params.seed} --threads {threads} --no-progress --overwrite {params.extra} > {log} 2>&1"
+        " --backend {params.backend} --seed {params.seed} --threads {threads} --no-progress --resume --overwrite {params.extra} > {log:q} 2>&1"
 
 
 rule table_3dgs:
@@ -36,4 +38,4 @@ rule table_3dgs:
     log:
         f"{OUT}/logs/table_3dgs.log",
     shell:
-        "inpaint360gs table reconstruction {input} --csv {output.csv} --md {output.md} > {log} 2>&1"
+        "inpaint360gs table reconstruction {input:q} --csv {output.csv:q} --md {output.md:q} > {log:q} 2>&1"

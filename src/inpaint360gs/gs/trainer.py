@@ -167,15 +167,6 @@ class Trainer:
         }
 
     def _restore(self, data: dict) -> None:
-        mine, theirs = self._identity(), data["identity"]
-        if mine != theirs:
-            diff = [k for k in mine if mine[k] != theirs.get(k)]
-            if "config" in diff:
-                a, b = mine["config"], theirs["config"]
-                diff = [f"config.{k}" for k in a if a[k] != b.get(k)] + [d for d in diff if d != "config"]
-            if "scene_content_sha256" in diff:
-                raise InputError("checkpoint was made on a scene with different content (sparse model or images differ); pass --overwrite to start afresh", self.out / CHECKPOINT_NAME)
-            raise InputError(f"checkpoint was made with different settings ({', '.join(diff)}); start afresh (--overwrite) or match them", self.out / CHECKPOINT_NAME)
         self.loop.load_state_dict(data["loop"])
         self.log_rows = list(data["log_rows"])
         self.window = _Window(data["window"])
@@ -212,26 +203,45 @@ class Trainer:
     def _prepare_folder(self, resume: bool, overwrite: bool) -> dict | None:
         """Decide what happens to ``out`` before any work; returns the checkpoint to resume from.
 
-        resume + checkpoint: continue (same scene content and settings, else an error);
-        resume without checkpoint: start afresh, unless a finished run's outputs are there (an error:
-        resuming must never silently replace a run); no resume: refuse a previous run unless
-        ``overwrite``, which deletes it.
+        ``resume`` with a checkpoint: continue it; it must come from the same scene content and
+        settings, else an error (with ``overwrite`` too: start afresh, what a workflow wants).
+        ``resume`` without a checkpoint: start afresh, unless a previous run's outputs are there
+        (an error: resuming never silently replaces a run). No ``resume``: refuse a previous run
+        unless ``overwrite``, which deletes it.
         """
         ckpt = self.out / CHECKPOINT_NAME
         previous = [self.out / n for n in RUN_FILES if (self.out / n).is_file()]
         if resume and ckpt.is_file():
-            return load_checkpoint(ckpt)
-        if resume and previous:
+            data = load_checkpoint(ckpt)
+            mismatch = self._identity_mismatch(data.get("identity", {}))
+            if mismatch is None:
+                return data
+            if not overwrite:
+                raise InputError(mismatch, ckpt)
+        elif resume and previous and not overwrite:
             raise InputError(
                 f"--resume: no {CHECKPOINT_NAME} to continue from, but the folder holds a previous run's "
                 f"{previous[0].name}; pass --overwrite to replace that run, or choose a new folder",
                 self.out,
             )
-        if previous and not overwrite:
+        elif previous and not overwrite:
             raise InputError("output folder holds a previous run; pass --resume to continue it, --overwrite to replace it, or choose a new folder", self.out)
         for p in previous:
             p.unlink()
         return None
+
+    def _identity_mismatch(self, theirs: dict) -> str | None:
+        """Why a checkpoint with identity ``theirs`` cannot continue this run, or None."""
+        mine = self._identity()
+        if mine == theirs:
+            return None
+        diff = [k for k in mine if mine[k] != theirs.get(k)]
+        if "scene_content_sha256" in diff:
+            return "checkpoint was made on a scene with different content (sparse model or images differ); pass --overwrite to start afresh"
+        if "config" in diff:
+            a, b = mine["config"], theirs.get("config", {})
+            diff = [f"config.{k}" for k in a if a[k] != b.get(k)] + [d for d in diff if d != "config"]
+        return f"checkpoint was made with different settings ({', '.join(diff)}); start afresh (--overwrite) or match them"
 
     def run(self, *, resume: bool = False, overwrite: bool = False) -> TrainResult:
         from tqdm import tqdm

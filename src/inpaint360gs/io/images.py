@@ -3,7 +3,7 @@
 Images are kept in their stored integer type (uint8 / uint16) until they are used, so a scene's
 training images cost one byte per channel in memory; :func:`to_float` converts to [0, 1].
 Every reader raises :class:`~inpaint360gs.core.errors.InputError` naming the file on bad input, and every
-writer writes atomically (DESIGN.md §7).
+writer writes atomically (docs/architecture.md, "Reliability").
 """
 
 from __future__ import annotations
