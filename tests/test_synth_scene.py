@@ -10,6 +10,8 @@ import pycolmap
 import pytest
 from PIL import Image
 
+from inpaint360gs.core.layout import assign_splits
+
 from dataset_tools.synth import (
     SCENES,
     build_scene,
@@ -56,6 +58,14 @@ def test_layout_and_metadata(toys):
     assert meta["name"] == "toys" and meta["up"] == [0.0, 0.0, 1.0]
     assert meta["removal_targets"] == [1, 2]
     assert [o["id"] for o in meta["objects"]] == [1, 2, 3]
+    # one click per target, in a training view, inside the target and away from its outline
+    assert [c["object"] for c in meta["clicks"]] == [1, 2]
+    splits = assign_splits([p.name for p in (toys / "images").iterdir()])
+    for c in meta["clicks"]:
+        assert splits[c["view"]] == "train"
+        inst = np.array(Image.open(toys / "gt" / "instance" / c["view"]))
+        x, y = c["x"], c["y"]
+        assert (inst[max(y - 1, 0) : y + 2, max(x - 1, 0) : x + 2] == c["object"]).all()
     assert meta["provenance"] == {"generator": "inpaint360gs-dataset synth", "version": meta["provenance"]["version"],
                                   "seed": 3, "width": W, "height": H, "reduced": True}
     names = sorted(p.name for p in (toys / "images").iterdir())

@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import cv2
 import numpy as np
 from PIL import Image
 from tqdm import tqdm
@@ -28,6 +29,7 @@ from dataset_tools.synth.scene import SynthScene, build_scene
 from dataset_tools.synth.sparse import sample_points, write_sparse_model
 from dataset_tools.synth.visibility import unseen_mask
 from inpaint360gs import __version__
+from inpaint360gs.core.layout import assign_splits
 from inpaint360gs.io.atomic import atomic_dir
 
 GENERATOR = "inpaint360gs-dataset synth"
@@ -41,14 +43,32 @@ def _json(path: Path, obj) -> None:
     path.write_text(json.dumps(obj, indent=1) + "\n")
 
 
-def scene_metadata(scene: SynthScene) -> dict:
-    """``scene.json`` (docs/architecture.md, "Scene format")."""
+def target_clicks(scene: SynthScene, instances: dict[str, np.ndarray]) -> list[dict]:
+    """A click for each removal target, as a user would give it: the training view where the target
+    covers most pixels, and its pixel farthest from the target's outline (so a click lands inside
+    the object even after segmentation erodes its edges). ``instances`` maps view names to gt masks."""
+    splits = assign_splits(list(instances))
+    clicks = []
+    for oid in scene.spec.removal_targets:
+        counts = {n: int((m == oid).sum()) for n, m in sorted(instances.items()) if splits[n] == "train"}
+        view = max(counts, key=lambda n: (counts[n], n))
+        inside = np.pad((instances[view] == oid).astype(np.uint8), 1)  # the image border counts as outline
+        dist = cv2.distanceTransform(inside, cv2.DIST_L2, 5)[1:-1, 1:-1]
+        y, x = np.unravel_index(int(np.argmax(dist)), dist.shape)
+        clicks.append({"object": oid, "view": view, "x": int(x), "y": int(y)})
+    return clicks
+
+
+def scene_metadata(scene: SynthScene, clicks: list[dict]) -> dict:
+    """``scene.json`` (docs/architecture.md, "Scene format"): ``clicks`` name the removal targets the
+    way a user does (method stages read only these); ``removal_targets`` lists their ids for evaluation."""
     spec = scene.spec
     return {
         "name": spec.name,
         "description": spec.description,
         "objects": [{"id": o.id, "label": o.label} for o in spec.objects],
         "removal_targets": spec.removal_targets,
+        "clicks": clicks,
         "up": [0.0, 0.0, 1.0],
         "provenance": {
             "generator": GENERATOR,
@@ -105,7 +125,8 @@ def write_scene(scene: SynthScene, folder: Path, progress: bool = False) -> None
     bar.close()
     _json(folder / "gt" / "cameras.json", cameras_metadata(scene))
     _json(folder / "gt" / "objects.json", objects_metadata(scene))
-    _json(folder / "scene.json", scene_metadata(scene))
+    instances = {v.name: renders[v.name].instance for v in scene.views if not v.object_free}
+    _json(folder / "scene.json", scene_metadata(scene, target_clicks(scene, instances)))
 
 
 def generate_scene(
