@@ -214,3 +214,56 @@ def write_box_scene(scene: BoxScene, out: Path, seed: int = 0):
     scene_json = {"name": out.name, "objects": [{"id": 1, "label": "box"}], "removal_targets": [1]}
     (out / "scene.json").write_text(json.dumps(scene_json, indent=2) + "\n")
     return rec
+
+
+# --- a scene made of Gaussians: a floor and blobs standing on it (object-field stages) --------------
+
+
+def blobs_model(centres=((0.45, 0.0, 0.25), (-0.45, 0.15, 0.22)), radius: float = 0.2, seed: int = 0):
+    """A Gaussian model of a textured floor (label 0) and solid balls of Gaussians standing on it
+    (labels 1, 2, ...); returns (Gaussians, labels (N,) long)."""
+    import torch
+
+    from inpaint360gs.core.gaussians import Gaussians
+
+    rng = np.random.default_rng(seed)
+    g = np.linspace(-1.2, 1.2, 41)
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), np.zeros(fx.size)], 1)
+    checker = ((np.floor(fx.ravel() / 0.3) + np.floor(fy.ravel() / 0.3)) % 2)[:, None]
+    floor_rgb = 0.35 + 0.3 * checker * np.array([[1.0, 0.8, 0.5]])
+    pts, rgb, lab, scales = [floor], [floor_rgb], [np.zeros(len(floor))], [np.full(len(floor), 0.045)]
+    palette = np.array([[0.9, 0.15, 0.1], [0.1, 0.3, 0.9], [0.2, 0.8, 0.2]])
+    for k, c in enumerate(centres, start=1):
+        d = rng.normal(size=(500, 3))
+        d *= (radius * rng.uniform(0.2, 1.0, size=(500, 1)) ** (1 / 3)) / np.linalg.norm(d, axis=1, keepdims=True)
+        pts.append(np.asarray(c) + d)
+        rgb.append(np.repeat(palette[(k - 1) % 3][None], 500, 0))
+        lab.append(np.full(500, k))
+        scales.append(np.full(500, 0.035))
+    P = torch.tensor(np.concatenate(pts), dtype=torch.float32)
+    C = torch.tensor(np.concatenate(rgb), dtype=torch.float32)
+    S = torch.tensor(np.concatenate(scales), dtype=torch.float32)
+    model = Gaussians.from_points(P, C, sh_degree=0, init_opacity=0.95, scales=S)
+    return model, torch.tensor(np.concatenate(lab), dtype=torch.long)
+
+
+def blobs_scene(root: Path, *, n_views: int = 16, n_test: int = 2, width: int = 64, height: int = 48, f: float = 55.0, radius: float = 3.0, elevation: float = 1.6, **model_kw):
+    """A scene folder whose images are renders of :func:`blobs_model` (test_ views without blob 1),
+    with that model's centres as sparse points; returns (root, model, labels)."""
+    import torch
+
+    from inpaint360gs.render.api import render
+
+    model, labels = blobs_model(**model_kw)
+    cams = orbit_cameras(n_views, radius=radius, height=elevation, width=width, h=height, f=f) + orbit_cameras(
+        n_test, radius=radius, height=elevation, width=width, h=height, f=f, prefix="test_", phase=0.3
+    )
+    free = model.subset(labels != 1)
+    with torch.no_grad():
+        for c in cams:
+            m = free if is_test_name(c.name) else model
+            write_image(root / "images" / c.name, render(m, c).color)
+    colors = (model.sh0[:, 0] * 0.28209479177387814 + 0.5).clamp(0, 1).numpy()
+    colmap.write_model(root / "sparse" / "0", cams, model.means.numpy()[labels.numpy() != 1], colors[labels.numpy() != 1])
+    return root, model, labels

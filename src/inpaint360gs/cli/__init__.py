@@ -16,6 +16,7 @@ from inpaint360gs.cli.common import run_stages
 STAGES: dict[str, tuple[str, str]] = {
     "train": ("inpaint360gs.cli.train", "train 3D Gaussian Splatting on a scene folder"),
     "render": ("inpaint360gs.cli.render", "render a trained model at a scene's cameras"),
+    "associate": ("inpaint360gs.cli.associate", "link per-view 2D segments into view-consistent object masks (Key Object Management)"),
     "table": ("inpaint360gs.cli.table", "collect per-scene metrics.json files into CSV/Markdown tables"),
 }
 

@@ -1,0 +1,43 @@
+"""``inpaint360gs associate SCENE MODEL.ply SEGMENTS OUT``: Key Object Management association of the
+segment stage's per-view masks into view-consistent object masks (paper Sec. 3.2; thin shell over
+:func:`inpaint360gs.segment.associate.associate_stage`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from inpaint360gs.cli.common import existing_dir, existing_file, fraction, nonneg_int, output_dir, positive_int
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from inpaint360gs.segment.associate import AssociationConfig
+
+    d = AssociationConfig()
+    parser.add_argument("scene", type=existing_dir, help="scene folder")
+    parser.add_argument("model", type=existing_file, help="the scene's trained 3DGS (point_cloud.ply)")
+    parser.add_argument("segments", type=existing_dir, help="output folder of `inpaint360gs segment`")
+    parser.add_argument("out", type=output_dir, help="output folder: object_mask/<stem>.png, objects.json")
+    parser.add_argument("--method", default=d.method, choices=["kom", "tracker"], help="kom: Key Object Management (default); tracker: ablation a), 2D IoU between consecutive views")
+    parser.add_argument("--variant", default=d.variant, choices=["paper", "code"], help="paper: GS-IoU 0.2 on plain IoU (default); code: the authors' public code (0.1 on |A∩B|/(|B|+|A∩B|), nearest 30%%)")
+    parser.add_argument("--sigma", type=fraction, default=None, help="GS-IoU threshold (default: the variant's)")
+    parser.add_argument("--keep-near", type=fraction, default=None, help="keep this nearest fraction of each patch's near cluster (default: the variant's)")
+    parser.add_argument("--patch", type=positive_int, default=d.patch, help=f"patch size in pixels (default {d.patch})")
+    parser.add_argument("--min-segment-pixels", type=nonneg_int, default=d.min_segment_pixels)
+    parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor of the scene")
+    parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+
+
+def run(args: argparse.Namespace) -> int:
+    from inpaint360gs.io.ply import read_ply
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.segment.associate import AssociationConfig, associate_stage
+
+    cfg = AssociationConfig(
+        method=args.method, variant=args.variant, sigma=args.sigma, keep_near=args.keep_near,
+        patch=args.patch, min_segment_pixels=args.min_segment_pixels,
+    ).resolved()  # fmt: skip
+    scene = load_scene(args.scene, resize=args.resize, load_masks=False)
+    model = read_ply(args.model)
+    res = associate_stage(scene, model, args.segments, args.out, cfg, overwrite=args.overwrite, meta={"scene": str(scene.root), "model": str(args.model)})
+    print(f"{scene.name}: {len(res.objects)} object(s) over {len(res.masks)} training views ({cfg.method}) -> {args.out}")
+    return 0

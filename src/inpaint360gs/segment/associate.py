@@ -1,0 +1,308 @@
+"""Key Object Management: view-consistent object ids from per-view 2D segments (paper Sec. 3.2,
+Eq. 2, Alg. 1; supp. B "Mask Association").
+
+Raw segments (one id image per training view, ids arbitrary per view) are linked across views
+through the Gaussians they cover. For each view in capture order:
+
+1. Project the Gaussian centres into the view (Gaussians with opacity below ``min_opacity`` are
+   left out: they carry no visible content and make the sets noisy).
+2. Per 16 x 16 patch of every segment, split the Gaussians projecting there into a near and a far
+   cluster by K-Means with K = 2 on their depth (in 1-D the optimal split is found exactly: the one
+   minimising the within-cluster sum of squares over the depth-sorted Gaussians). Only the near
+   cluster takes the segment's label — the far one is what the object occludes (paper Fig. 3).
+   The authors' public code additionally keeps only the nearest 30% of that cluster (an option).
+3. Compare each segment's Gaussian set with every object of the Key Object Database by GS-IoU
+   (Eq. 2, ``|A ∩ B| / |A ∪ B|``; the public code's variant ``|A ∩ B| / (|B| + |A ∩ B|)`` is an
+   option). Above the threshold σ the segment inherits the best object's id and its Gaussians join
+   that object's set; otherwise it founds a new object (at most 255, paper: 256 classes with the
+   background).
+4. The view's associated mask is its segments relabelled with these ids; pixels outside any
+   segment, and segments that cover no Gaussian or fewer than ``min_segment_pixels`` pixels, are
+   background (0).
+
+``method="tracker"`` is the paper's ablation a) ("w/o object association", Tab. 3): ids are carried
+from one view to the next by 2D IoU of the segments, like a video tracker, without the Gaussians.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.images import read_mask, write_labels
+from inpaint360gs.io.scene import Scene, View
+
+MAX_OBJECTS = 255  # ids 1..255; 0 is the background (paper supp. B: at most 256 classes)
+
+
+@dataclass
+class AssociationConfig:
+    """Settings of the association; defaults are the paper's (supp. B "Mask Association")."""
+
+    method: str = "kom"  # "kom": Key Object Management (Sec. 3.2); "tracker": ablation a), 2D IoU between consecutive views
+    variant: str = "paper"  # "paper": sigma 0.2 on plain IoU; "code": the authors' public code (sigma 0.1, |A∩B|/(|B|+|A∩B|), nearest 30%)
+    sigma: float | None = None  # GS-IoU threshold; None = the variant's (0.2 paper, 0.1 code)
+    patch: int = 16  # masks are matched per patch of this many pixels (supp. B)
+    keep_near: float | None = None  # keep this nearest fraction of the near cluster; None = the variant's (1.0 paper, 0.3 code)
+    min_opacity: float = 0.05  # Gaussians below this opacity take no part
+    min_segment_pixels: int = 16  # smaller segments are background
+    tracker_iou: float = 0.3  # tracker: a segment inherits the id of the previous view's region it overlaps by at least this IoU
+
+    def resolved(self) -> AssociationConfig:
+        if self.method not in ("kom", "tracker"):
+            raise InputError(f"unknown association method {self.method!r} (kom, tracker)", "--method")
+        if self.variant not in ("paper", "code"):
+            raise InputError(f"unknown association variant {self.variant!r} (paper, code)", "--variant")
+        paper = self.variant == "paper"
+        out = replace(
+            self,
+            sigma=(0.2 if paper else 0.1) if self.sigma is None else self.sigma,
+            keep_near=(1.0 if paper else 0.3) if self.keep_near is None else self.keep_near,
+        )
+        if not 0 < out.sigma < 1:
+            raise InputError(f"GS-IoU threshold must lie in (0, 1), got {out.sigma}", "--sigma")
+        if not 0 < out.keep_near <= 1:
+            raise InputError(f"near fraction must lie in (0, 1], got {out.keep_near}", "--keep-near")
+        if out.patch < 1:
+            raise InputError(f"patch size must be >= 1, got {out.patch}", "--patch")
+        return out
+
+
+# --- geometry ---------------------------------------------------------------------------------------
+
+
+def project_centres(means: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel column, row (integers) and camera depth of the centres in front of ``camera`` and inside
+    its image, with their indices into ``means``."""
+    R = camera.R.detach().cpu().double().numpy()
+    t = camera.t.detach().cpu().double().numpy()
+    xc = means @ R.T + t
+    z = xc[:, 2]
+    front = z > 1e-6
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = camera.fx * xc[:, 0] / z + camera.cx
+        v = camera.fy * xc[:, 1] / z + camera.cy
+    inside = front & (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    idx = np.flatnonzero(inside)
+    return np.floor(u[idx]).astype(np.int64), np.floor(v[idx]).astype(np.int64), z[idx], idx
+
+
+def near_cluster(groups: np.ndarray, depth: np.ndarray, keep_near: float = 1.0) -> np.ndarray:
+    """Boolean mask of the elements in the near cluster of K-Means (K = 2) on ``depth``, per group.
+
+    In one dimension the optimal 2-means partition is a split of the sorted values; it is found
+    exactly by evaluating every split point's within-cluster sum of squares (vectorised over all
+    groups). Groups of one element keep it. ``keep_near < 1`` keeps only that nearest fraction of
+    each near cluster (at least one element).
+    """
+    n = len(depth)
+    keep = np.zeros(n, dtype=bool)
+    if n == 0:
+        return keep
+    order = np.lexsort((depth, groups))
+    g, z = groups[order], depth[order].astype(np.float64)
+    starts = np.flatnonzero(np.r_[True, g[1:] != g[:-1]])
+    sizes = np.diff(np.r_[starts, n])
+    gid = np.repeat(np.arange(len(starts)), sizes)
+    pos = np.arange(n) - starts[gid]  # 0-based position inside the group
+    cz, cz2 = np.cumsum(z), np.cumsum(z * z)
+    base = np.r_[0.0, cz][starts][gid]
+    base2 = np.r_[0.0, cz2][starts][gid]
+    tot = (np.r_[cz[starts + sizes - 1]])[gid] - base
+    tot2 = (np.r_[cz2[starts + sizes - 1]])[gid] - base2
+    k = pos + 1.0  # left cluster = first k elements of the group
+    left, left2 = cz - base, cz2 - base2
+    right_n = sizes[gid] - k
+    sse = left2 - left * left / k
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sse = sse + np.where(right_n > 0, (tot2 - left2) - (tot - left) ** 2 / right_n, np.inf)
+    sse[sizes[gid] == 1] = 0.0  # a lone Gaussian: it is the near cluster
+    # best split per group: smallest SSE (first on ties)
+    best = np.lexsort((pos, sse, gid))
+    first = best[np.r_[True, gid[best][1:] != gid[best][:-1]]]
+    n_near = pos[first] + 1  # size of the near cluster per group
+    n_keep = np.maximum(1, np.floor(n_near * keep_near + 1e-9)).astype(np.int64)
+    keep[order[pos < n_keep[gid]]] = True
+    return keep
+
+
+def gs_iou(db: np.ndarray, db_sizes: np.ndarray, members: np.ndarray, variant: str) -> np.ndarray:
+    """GS-IoU (Eq. 2) of the proposal ``members`` (Gaussian indices) with every database object
+    (rows of the boolean matrix ``db``); the public code's variant is |A∩B| / (|B| + |A∩B|)."""
+    inter = db[:, members].sum(axis=1).astype(np.float64)
+    if variant == "code":
+        return inter / np.maximum(db_sizes + inter, 1)
+    return inter / np.maximum(db_sizes + len(members) - inter, 1)
+
+
+# --- the association -------------------------------------------------------------------------------
+
+
+@dataclass
+class Association:
+    masks: dict[str, np.ndarray]  # view name -> (H, W) uint8 associated ids
+    objects: list[dict]  # per object id: Gaussians in its set, views and pixels labelled
+    config: AssociationConfig
+
+
+def _segment_ids(seg: np.ndarray, min_pixels: int) -> tuple[np.ndarray, np.ndarray]:
+    ids, counts = np.unique(seg, return_counts=True)
+    keep = (ids != 0) & (counts >= min_pixels)
+    return ids[keep], counts[keep]
+
+
+def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, cfg: AssociationConfig) -> tuple[list[np.ndarray], np.ndarray]:
+    n = len(means)
+    db = np.zeros((0, n), dtype=bool)
+    db_sizes = np.zeros(0)
+    out = []
+    for seg, cam in zip(segs, cams):
+        u, v, z, idx = project_centres(means, cam)
+        labels = seg[v, u].astype(np.int64)
+        ids, _ = _segment_ids(seg, cfg.min_segment_pixels)
+        on = np.isin(labels, ids)
+        u, v, z, idx, labels = u[on], v[on], z[on], idx[on], labels[on]
+        tiles_x = -(-cam.width // cfg.patch)
+        group = labels * ((-(-cam.height // cfg.patch)) * tiles_x) + (v // cfg.patch) * tiles_x + (u // cfg.patch)
+        near = near_cluster(group, z, cfg.keep_near)
+        lut = np.zeros(int(seg.max()) + 1, dtype=np.uint8)
+        for s in ids:
+            members = np.unique(idx[near & (labels == s)])
+            if members.size == 0:
+                continue  # the segment covers no Gaussian: background
+            if len(db):
+                score = gs_iou(db, db_sizes, members, cfg.variant)
+                j = int(np.argmax(score))
+                if score[j] > cfg.sigma:
+                    db[j, members] = True
+                    db_sizes[j] = db[j].sum()
+                    lut[s] = j + 1
+                    continue
+            if len(db) >= MAX_OBJECTS:
+                continue  # no id left: background (reported in objects.json via the counts)
+            row = np.zeros((1, n), dtype=bool)
+            row[0, members] = True
+            db = np.vstack([db, row])
+            db_sizes = np.r_[db_sizes, members.size]
+            lut[s] = len(db)
+        out.append(lut[seg])
+    return out, db_sizes
+
+
+def _tracker(segs: Sequence[np.ndarray], cfg: AssociationConfig) -> list[np.ndarray]:
+    """Ablation a): carry ids between consecutive views by 2D IoU, like a video tracker."""
+    out, prev, next_id = [], None, 1
+    for seg in segs:
+        ids, counts = _segment_ids(seg, cfg.min_segment_pixels)
+        lut = np.zeros(int(seg.max()) + 1, dtype=np.uint8)
+        taken: set[int] = set()
+        for s, area in sorted(zip(ids, counts), key=lambda sc: -sc[1]):  # larger segments choose first
+            best, best_iou = 0, 0.0
+            if prev is not None:
+                region = seg == s
+                cand, inter = np.unique(prev[region], return_counts=True)
+                for c, i in zip(cand, inter):
+                    if c == 0 or c in taken:
+                        continue
+                    iou = i / (area + (prev == c).sum() - i)
+                    if iou > best_iou:
+                        best, best_iou = int(c), iou
+            if best and best_iou >= cfg.tracker_iou:
+                lut[s] = best
+                taken.add(best)
+            elif next_id <= MAX_OBJECTS:
+                lut[s] = next_id
+                next_id += 1
+        prev = lut[seg]
+        out.append(prev)
+    return out
+
+
+def associate(segments: dict[str, np.ndarray], scene: Scene, model: Gaussians, cfg: AssociationConfig | None = None) -> Association:
+    """Associate the raw segments of ``scene``'s training views (name -> (H, W) id image) into
+    view-consistent object masks, processing views in capture (name) order."""
+    cfg = (cfg or AssociationConfig()).resolved()
+    views = scene.train_views
+    missing = [v.name for v in views if v.name not in segments]
+    if missing:
+        raise InputError(f"no segments for training view {missing[0]} ({len(missing)} missing)")
+    for v in views:
+        if segments[v.name].shape != (v.camera.height, v.camera.width):
+            h, w = segments[v.name].shape
+            raise InputError(f"segments of view {v.name} are {w}x{h}, the view is {v.camera.width}x{v.camera.height}")
+    segs = [segments[v.name] for v in views]
+    opac = torch.sigmoid(model.opacity_logits.detach()).cpu().numpy()
+    means = model.means.detach().cpu().double().numpy()[opac >= cfg.min_opacity]
+    if cfg.method == "tracker":
+        masks, sizes = _tracker(segs, cfg), None
+    else:
+        masks, sizes = _kom(segs, [v.camera for v in views], means, cfg)
+    objects = []
+    n_obj = int(max((m.max() for m in masks), default=0))
+    for oid in range(1, n_obj + 1):
+        px = [int((m == oid).sum()) for m in masks]
+        objects.append({
+            "id": oid,
+            "views": int(sum(p > 0 for p in px)),
+            "pixels": int(sum(px)),
+            **({"gaussians": int(sizes[oid - 1])} if sizes is not None else {}),
+        })  # fmt: skip
+    if cfg.method == "kom" and sum(len(_segment_ids(s, cfg.min_segment_pixels)[0]) for s in segs) and not objects:
+        raise InputError("no segment covers any Gaussian: is the model from this scene?")
+    return Association({v.name: m for v, m in zip(views, masks)}, objects, cfg)
+
+
+# --- the stage --------------------------------------------------------------------------------------
+
+
+def read_segments(segment_dir: str | Path, views: Sequence[View]) -> tuple[dict[str, np.ndarray], dict]:
+    """The segment stage's id images for ``views`` and its ``segment.json``."""
+    segment_dir = Path(segment_dir)
+    info_path = segment_dir / "segment.json"
+    if not info_path.is_file():
+        raise InputError("not a segment stage output (no segment.json)", segment_dir)
+    try:
+        info = json.loads(info_path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise InputError(f"not valid JSON ({e})", info_path) from None
+    segs = {}
+    for v in views:
+        p = segment_dir / f"{v.stem}.png"
+        if not p.is_file():
+            raise InputError(f"no segments for training view {v.name}", p)
+        m = read_mask(p)
+        if m.shape != (v.camera.height, v.camera.width):
+            raise InputError(f"segments are {m.shape[1]}x{m.shape[0]}, view {v.name} is {v.camera.width}x{v.camera.height}", p)
+        segs[v.name] = m
+    return segs, info
+
+
+def write_association(result: Association, scene: Scene, out: str | Path, *, meta: dict, overwrite: bool = False) -> None:
+    """``OUT/object_mask/<stem>.png`` per training view and ``OUT/objects.json`` (docs/architecture.md,
+    "Stage outputs"), atomically."""
+    by_name = {v.name: v for v in scene.views}
+    with atomic_dir(out, overwrite=overwrite) as tmp:
+        for name, m in result.masks.items():
+            write_labels(tmp / "object_mask" / f"{by_name[name].stem}.png", m)
+        info = {**meta, "config": asdict(result.config), "objects": result.objects, "views": list(result.masks)}
+        (tmp / "objects.json").write_text(json.dumps(info, indent=1) + "\n")
+
+
+def associate_stage(scene: Scene, model: Gaussians, segment_dir: str | Path, out: str | Path, cfg: AssociationConfig | None = None, *, overwrite: bool = False, meta: dict | None = None) -> Association:
+    """Read the segment stage's output, associate, write ``out``; returns the association."""
+    t0 = time.perf_counter()
+    segs, info = read_segments(segment_dir, scene.train_views)
+    result = associate(segs, scene, model, cfg)
+    meta = {**(meta or {}), "segmenter": info.get("segmenter", "unknown"), "seconds": round(time.perf_counter() - t0, 2)}
+    write_association(result, scene, out, meta=meta, overwrite=overwrite)
+    return result

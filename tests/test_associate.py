@@ -1,0 +1,120 @@
+"""Key Object Management association (paper Sec. 3.2, Eq. 2): the K-Means depth split, GS-IoU,
+and view-consistent ids from per-view segments whose ids do not agree."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+from scene_builder import blobs_scene
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.scene import load_scene
+from inpaint360gs.render.api import render
+from inpaint360gs.segment.associate import AssociationConfig, associate, gs_iou, near_cluster
+
+
+def test_near_cluster_is_the_exact_two_means_split_per_group():
+    groups = np.array([0, 0, 0, 0, 0, 1, 1, 1, 2])
+    depth = np.array([5.0, 1.0, 1.2, 5.1, 1.1, 3.0, 3.1, 9.0, 7.0])
+    near = near_cluster(groups, depth)
+    assert near.tolist() == [False, True, True, False, True, True, True, False, True]
+    # keep the nearest 30% of the near cluster (at least one): group 0 keeps depth 1.0 only
+    near = near_cluster(groups, depth, keep_near=0.3)
+    assert near.tolist() == [False, True, False, False, False, True, False, False, True]
+
+
+def test_near_cluster_matches_brute_force_kmeans():
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        z = np.sort(rng.gamma(2.0, 1.0, size=rng.integers(2, 12)))
+        best = min(range(1, len(z)), key=lambda k: ((z[:k] - z[:k].mean()) ** 2).sum() + ((z[k:] - z[k:].mean()) ** 2).sum())
+        got = near_cluster(np.zeros(len(z), dtype=int), rng.permutation(z))
+        assert got.sum() == best
+
+
+def test_gs_iou_plain_and_public_code_variant():
+    db = np.zeros((2, 10), dtype=bool)
+    db[0, [0, 1, 2, 3]] = True
+    db[1, [8, 9]] = True
+    sizes = db.sum(1).astype(float)
+    members = np.array([2, 3, 4, 5])
+    np.testing.assert_allclose(gs_iou(db, sizes, members, "paper"), [2 / 6, 0.0])
+    np.testing.assert_allclose(gs_iou(db, sizes, members, "code"), [2 / (4 + 2), 0.0])
+
+
+def _true_labels(scene, model, labels):
+    """The true object label of every pixel of every training view (one-hot labels rendered)."""
+    g = model.map(lambda t: t)
+    g.features = torch.nn.functional.one_hot(labels, 3).float()
+    truth = {}
+    for v in scene.train_views:
+        with torch.no_grad():
+            out = render(g, v.camera, with_features=True)
+        lab = out.features.argmax(-1).numpy()
+        lab[out.features.max(-1).values.numpy() < 0.5 * out.alpha.numpy()] = 0
+        truth[v.name] = lab
+    return truth
+
+
+def _segments(truth, rng, split=False):
+    """Per-view segment images of the true labels with ids shuffled per view (like a 2D segmenter);
+    ``split``: blob 1 cut in two segments in every other view (over-segmentation)."""
+    segs = {}
+    for k, (name, lab) in enumerate(truth.items()):
+        ids = rng.permutation(np.arange(1, 50))[:3]
+        seg = np.zeros(lab.shape, np.uint16)
+        seg[lab == 1], seg[lab == 2] = ids[0], ids[1]
+        cols = np.nonzero((lab == 1).any(0))[0]
+        if split and k % 2 and len(cols) > 4:
+            seg[:, cols[len(cols) // 2] :][lab[:, cols[len(cols) // 2] :] == 1] = ids[2]
+        segs[name] = seg
+    return segs
+
+
+@pytest.fixture(scope="module")
+def blobs(tmp_path_factory):
+    root, model, labels = blobs_scene(tmp_path_factory.mktemp("assoc") / "blobs")
+    scene = load_scene(root)
+    return scene, model, _true_labels(scene, model, labels)
+
+
+@pytest.mark.parametrize("split", [False, True])
+def test_kom_gives_each_object_one_id_in_every_view(blobs, split):
+    scene, model, truth = blobs
+    segs = _segments(truth, np.random.default_rng(1), split)
+    res = associate(segs, scene, model)
+    assert len(res.objects) == 2
+    for obj in (1, 2):  # the same id covers the object in every view (a split half inherits the whole's id)
+        seen = [n for n in truth if (truth[n] == obj).sum() > 20]
+        ids = {int(np.bincount(res.masks[n][truth[n] == obj]).argmax()) for n in seen}
+        assert len(ids) == 1 and 0 not in ids, (obj, ids)
+        (oid,) = ids
+        for n in seen:
+            assert (res.masks[n][truth[n] == obj] == oid).mean() > 0.9, n
+    for n in truth:  # background stays background
+        assert (res.masks[n][truth[n] == 0] == 0).all()
+
+
+def test_tracker_ablation_links_consecutive_views_by_2d_overlap(blobs):
+    scene, model, truth = blobs
+    segs = _segments(truth, np.random.default_rng(2))
+    res = associate(segs, scene, model, AssociationConfig(method="tracker"))
+    assert res.config.method == "tracker" and all(m.dtype == np.uint8 for m in res.masks.values())
+    assert {o["id"] for o in res.objects} >= {1, 2}
+
+
+def test_bad_inputs(blobs):
+    scene, model, truth = blobs
+    segs = _segments(truth, np.random.default_rng(3))
+    first = scene.train_views[0].name
+    with pytest.raises(InputError, match="no segments for training view"):
+        associate({k: v for k, v in segs.items() if k != first}, scene, model)
+    with pytest.raises(InputError, match="segments of view"):
+        associate({**segs, first: segs[first][:-1]}, scene, model)
+    far = model.map(lambda t: t)
+    far.means = model.means + 100.0  # a model from somewhere else: no Gaussian in any view
+    with pytest.raises(InputError, match="no segment covers any Gaussian"):
+        associate(segs, scene, far)
+    with pytest.raises(InputError, match="unknown association method"):
+        associate(segs, scene, model, AssociationConfig(method="deva"))
