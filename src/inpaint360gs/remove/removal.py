@@ -1,0 +1,223 @@
+"""Object selection by click or id, and removal from the object-aware Gaussian field (paper Sec. 3.4
+first paragraph; supp. B "Object Removal", supp. Eq. 1 AMCR).
+
+Selection: a click (a view and a pixel) is resolved through the id map the distilled field renders
+for that view (argmax of the classifier on the rendered identity features); an id may also be given
+directly. A click on the background, outside the image or on an unknown view is refused.
+
+Removal of a selected object (the authors' public code; Gaussian Grouping uses the same two steps):
+
+1. every Gaussian whose own identity feature gives the object a probability above ``threshold``
+   (0.7) goes;
+2. so does every Gaussian inside the convex hull (Delaunay) of those Gaussians' centres, after a
+   statistical outlier filter (centres whose mean distance to their k nearest selected neighbours
+   is more than ``outlier_std`` standard deviations above the mean) so that a few stray
+   Gaussians do not inflate the hull. Gaussians the field confidently assigns to ANOTHER object
+   (probability above 0.5) are kept (``protect_others``): the hull of a fruit must not take a
+   bite out of the plate it lies on.
+
+The removed Gaussians are kept in ``removed.ply`` (with their features) so that they can be put back
+(occluders are removed and reinserted around the inpainting stage).
+
+Pixels left to fill (the AMCR masks, per training view): a pixel is to be filled when at least
+``mask_share`` (half) of its colour came from removed Gaussians in the original model, i.e.
+``Σ_{i removed} α_i T_i ≥ 0.5`` with the weights of the full model — the removed objects' rendered
+footprint. AMCR (supp. Eq. 1) is the mean over training views of the percentage of such pixels.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.distill.field import IdentityField
+from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.images import write_mask
+from inpaint360gs.io.ply import write_ply
+from inpaint360gs.io.scene import Scene, View
+from inpaint360gs.metrics.amcr import amcr
+from inpaint360gs.render.api import render
+
+
+@dataclass(frozen=True)
+class Click:
+    """A user's selection: a pixel (column x, row y) in a named view."""
+
+    view: str
+    x: int
+    y: int
+
+    @staticmethod
+    def parse(text: str) -> "Click":
+        """``VIEW:X,Y`` (e.g. ``IMG_0003.png:120,88``)."""
+        try:
+            view, xy = text.rsplit(":", 1)
+            x, y = (int(round(float(s))) for s in xy.split(","))
+        except ValueError:
+            raise InputError(f"click {text!r} is not VIEW:X,Y (e.g. IMG_0003.png:120,88)", "--click") from None
+        return Click(view, x, y)
+
+    def __str__(self) -> str:
+        return f"{self.view}:{self.x},{self.y}"
+
+
+@dataclass
+class RemovalConfig:
+    """Settings of the removal (supp. B "Object Removal"; defaults from the authors' public code)."""
+
+    threshold: float = 0.7  # a Gaussian goes when its probability of a selected object exceeds this
+    hull: bool = True  # also remove what lies inside the convex hull of the selected Gaussians
+    outlier_k: int = 10  # statistical outlier filter before the hull: neighbours considered ...
+    outlier_std: float = 2.0  # ... and the cut in standard deviations above the mean distance
+    protect_others: bool = True  # keep Gaussians with probability > 0.5 of another (non-background) object
+    mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
+
+
+@dataclass
+class Removal:
+    kept: Gaussians  # the edited scene
+    removed: Gaussians  # what was taken out
+    removed_mask: torch.Tensor  # (N,) bool over the input model
+    objects: list[int]  # the selected object ids
+    counts: dict = field(default_factory=dict)  # per object: by probability, by hull
+
+
+def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> list[int]:
+    """The object id under each click, read off the id map the field renders for the click's view."""
+    ids = []
+    for c in clicks:
+        try:
+            view = scene.view(c.view)
+        except InputError:
+            raise InputError(f"click {c}: the scene has no view {c.view!r}", scene.root) from None
+        if view.is_test:
+            raise InputError(f"click {c}: {view.name} is an evaluation (test_) view; click on a training view", scene.root)
+        cam = view.camera
+        if not (0 <= c.x < cam.width and 0 <= c.y < cam.height):
+            raise InputError(f"click {c} is outside the {cam.width}x{cam.height} image", "--click")
+        id_map, _ = field_.render_ids(cam)
+        oid = int(id_map[c.y, c.x])
+        if oid == 0:
+            raise InputError(f"click {c} is on the background (no object there in the rendered id map)", "--click")
+        ids.append(oid)
+    return ids
+
+
+def _inlier_points(points: np.ndarray, k: int, n_std: float) -> np.ndarray:
+    """Statistical outlier removal: keep points whose mean distance to their k neighbours is at most
+    mean + n_std * std over the set."""
+    from scipy.spatial import cKDTree
+
+    if len(points) <= k + 1:
+        return points
+    d, _ = cKDTree(points).query(points, k=k + 1)
+    m = d[:, 1:].mean(axis=1)
+    return points[m <= m.mean() + n_std * m.std()]
+
+
+def inside_hull(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """Boolean mask of ``queries`` inside the convex hull of ``points`` (Delaunay; degenerate sets:
+    nothing is inside)."""
+    from scipy.spatial import Delaunay, QhullError
+
+    if len(points) < 5:
+        return np.zeros(len(queries), dtype=bool)
+    try:
+        tri = Delaunay(points)
+    except QhullError:  # flat or collinear: no volume
+        return np.zeros(len(queries), dtype=bool)
+    return tri.find_simplex(queries) >= 0
+
+
+def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalConfig | None = None) -> Removal:
+    """Remove the objects ``object_ids`` from the field's Gaussians (see the module docstring)."""
+    cfg = cfg or RemovalConfig()
+    known = set(field_.class_ids) - {0}
+    for oid in object_ids:
+        if oid not in known:
+            raise InputError(f"unknown object id {oid} (the field knows {sorted(known)})", "--id")
+    if not object_ids:
+        raise InputError("nothing selected: give at least one --click or --id")
+    probs = field_.gaussian_probs()  # (N, Q)
+    col = {oid: field_.class_ids.index(oid) for oid in object_ids}
+    means = field_.model.means.detach().cpu().double().numpy()
+    others = [i for i, oid in enumerate(field_.class_ids) if oid != 0 and oid not in col]
+    protected = (probs[:, others] > 0.5).any(dim=1).numpy() if (cfg.protect_others and others) else np.zeros(len(means), bool)
+    remove = np.zeros(len(means), dtype=bool)
+    counts = {}
+    for oid, c in col.items():
+        sel = (probs[:, c] > cfg.threshold).numpy()
+        hull = np.zeros_like(sel)
+        if cfg.hull and sel.sum() >= 5:
+            pts = _inlier_points(means[sel], cfg.outlier_k, cfg.outlier_std)
+            hull = inside_hull(pts, means) & ~sel & ~protected
+        remove |= sel | hull
+        counts[str(oid)] = {"by_probability": int(sel.sum()), "by_hull": int(hull.sum())}
+    if not remove.any():
+        raise InputError(f"no Gaussian has probability > {cfg.threshold} for object(s) {object_ids}: nothing to remove")
+    mask = torch.from_numpy(remove)
+    return Removal(field_.model.subset(~mask), field_.model.subset(mask), mask, list(object_ids), counts)
+
+
+@torch.no_grad()
+def fill_masks(model: Gaussians, removed_mask: torch.Tensor, views: list[View], share: float = 0.5, backend: str = "auto") -> dict[str, np.ndarray]:
+    """Per view, the pixels at least ``share`` of whose colour the removed Gaussians gave in ``model``
+    (see the module docstring): the removed objects' rendered footprint."""
+    g = model.map(lambda t: t)
+    g.features = removed_mask.to(model.means.dtype)[:, None]
+    out = {}
+    for v in views:
+        o = render(g, v.camera, with_features=True, backend=backend)
+        out[v.name] = (o.features[..., 0] >= share).numpy()
+    return out
+
+
+def removal_stage(
+    field_: IdentityField,
+    scene: Scene,
+    out: str | Path,
+    *,
+    clicks: list[Click] | None = None,
+    ids: list[int] | None = None,
+    cfg: RemovalConfig | None = None,
+    backend: str = "auto",
+    overwrite: bool = False,
+    meta: dict | None = None,
+) -> dict:
+    """Select (clicks and/or ids), remove, write ``out`` (docs/architecture.md, "Stage outputs");
+    returns what ``removal.json`` holds."""
+    cfg = cfg or RemovalConfig()
+    t0 = time.perf_counter()
+    clicks = list(clicks or [])
+    targets = resolve_clicks(field_, scene, clicks) + list(ids or [])
+    targets = list(dict.fromkeys(targets))  # keep order, drop repeats
+    res = remove_objects(field_, targets, cfg)
+    views = scene.train_views
+    masks = fill_masks(field_.model, res.removed_mask, views, cfg.mask_share, backend)
+    stack = np.stack([masks[v.name] for v in views])
+    info = {
+        **(meta or {}),
+        "clicks": [str(c) for c in clicks],
+        "objects": targets,
+        "removed_gaussians": int(res.removed_mask.sum()),
+        "kept_gaussians": len(res.kept),
+        "counts": res.counts,
+        "amcr_percent": amcr(stack),
+        "mask_rule": f"a pixel is to be filled when removed Gaussians gave at least {cfg.mask_share:g} of its colour in the original model",
+        "config": asdict(cfg),
+        "seconds": round(time.perf_counter() - t0, 2),
+    }
+    with atomic_dir(out, overwrite=overwrite) as tmp:
+        write_ply(tmp / "point_cloud.ply", res.kept)
+        write_ply(tmp / "removed.ply", res.removed)
+        for v in views:
+            write_mask(tmp / "masks" / f"{v.stem}.png", masks[v.name])
+        (tmp / "removal.json").write_text(json.dumps(info, indent=1) + "\n")
+    return info
