@@ -91,7 +91,7 @@ class RunLayout:
 
     @property
     def renders(self) -> Path:  # renders of the final scene at the test_ cameras
-        return self.root / "renders"
+        return self.inpainted / "renders" / "test"
 
     @property
     def model(self) -> Path:  # the 3DGS model the later stages read

@@ -217,6 +217,7 @@ def removal_stage(
     with atomic_dir(out, overwrite=overwrite) as tmp:
         write_ply(tmp / "point_cloud.ply", res.kept)
         write_ply(tmp / "removed.ply", res.removed)
+        np.save(tmp / "removed_index.npy", np.flatnonzero(res.removed_mask.numpy()))
         for v in views:
             write_mask(tmp / "masks" / f"{v.stem}.png", masks[v.name])
         (tmp / "removal.json").write_text(json.dumps(info, indent=1) + "\n")

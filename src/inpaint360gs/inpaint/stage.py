@@ -1,0 +1,205 @@
+"""The inpainting stage: from the scene after removal to the inpainted scene (paper Sec. 3.4–3.5,
+Alg. 1 second half).
+
+1. Virtual cameras around the removed objects (:mod:`inpaint360gs.views.virtual`), or the training
+   cameras (ablation c, "w/o virtual camera pose").
+2. Occluders of the removed objects in those views, found by object id, taken out for inpainting.
+3. Geometric unseen masks per view (:mod:`inpaint360gs.views.unseen`).
+4. Recursive conditional RGB-D 2D inpainting along the views (:mod:`.conditioned`; ablation d off).
+5. Depth-guided initialisation of new Gaussians (:mod:`.init`; ablation b: naive).
+6. 3D inpainting with hybrid supervision (:mod:`.refine`; ablation e: mask-only), then the
+   occluders are put back.
+7. What people look at: renders at the ``test_`` cameras (cameras only; their pixels are never
+   read), a before/after grid, a GIF along the virtual trajectory.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.distill.field import IdentityField
+from inpaint360gs.inpaint.conditioned import inpaint_views, reprojection_error
+from inpaint360gs.inpaint.init import depth_guided_init, naive_init
+from inpaint360gs.inpaint.inpainters import get_inpainter
+from inpaint360gs.inpaint.refine import RefineConfig, refine
+from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.images import write_image, write_mask
+from inpaint360gs.io.ply import write_ply
+from inpaint360gs.io.scene import Scene
+from inpaint360gs.render.api import render
+from inpaint360gs.views.unseen import TrainingVisibility, UnseenConfig, occluders, unseen_mask
+from inpaint360gs.views.virtual import VirtualViewsConfig, cameras_to_json, choose_trajectory
+
+
+@dataclass
+class InpaintConfig:
+    """The inpainting stage; each switch off is one ablation of paper Tab. 3."""
+
+    views: str = "virtual"  # "virtual" | "training": ablation c)
+    condition: bool = True  # recursive conditioning; False: ablation d)
+    depth_init: bool = True  # depth-guided initialisation; False: ablation b) (naive)
+    inpainter: str = "default"  # 2D inpainter (inpaint.inpainters registry)
+    occluders: bool = True  # take occluders out for inpainting, put them back after
+    occluder_min_pixels: int = 10
+    virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)
+    unseen: UnseenConfig = field(default_factory=UnseenConfig)
+    refine: RefineConfig = field(default_factory=RefineConfig)
+    backend: str = "auto"
+
+
+def _per_gaussian_ids(field_: IdentityField) -> np.ndarray:
+    probs = field_.gaussian_probs()
+    return np.asarray(field_.class_ids)[probs.argmax(dim=1).numpy()]
+
+
+def inpaint_scene(
+    field_: IdentityField,
+    removed_mask: torch.Tensor,
+    removed_ids: list[int],
+    scene: Scene,
+    cfg: InpaintConfig | None = None,
+    *,
+    progress: bool = False,
+) -> tuple[Gaussians, dict, list]:
+    """Run steps 1–6 (see the module docstring); returns (final model, record, inpainted views)."""
+    cfg = cfg or InpaintConfig()
+    t = {}
+    t0 = time.perf_counter()
+    original = field_.model.map(lambda x: x.detach())
+    if not bool(removed_mask.any()):
+        raise InputError("nothing was removed: no Gaussian is marked in the removal")
+    train_cams = [v.camera for v in scene.train_views]
+    visibility = TrainingVisibility(original, train_cams, backend=cfg.backend)
+    edited = original.subset(~removed_mask)
+    t["visibility_s"] = time.perf_counter() - t0
+
+    # 1. cameras
+    t0 = time.perf_counter()
+    centre = original.means[removed_mask].detach().double().median(dim=0).values.numpy()
+
+    def shares(cams):
+        return [unseen_mask(original, removed_mask, edited, c, visibility, cfg.unseen, cfg.backend)[0].mean() for c in cams]
+
+    if cfg.views == "virtual":
+        cameras, trajectory = choose_trajectory(train_cams, centre, shares, cfg.virtual)
+    elif cfg.views == "training":
+        cameras, trajectory = train_cams, {"training_views": [v.name for v in scene.train_views]}
+    else:
+        raise InputError(f"unknown view source {cfg.views!r} (virtual, training)", "--views")
+    t["cameras_s"] = time.perf_counter() - t0
+
+    # 2. occluders out
+    t0 = time.perf_counter()
+    ids = _per_gaussian_ids(field_)
+    occ = occluders(original, removed_mask, ids, cameras, set(removed_ids) | {0}, cfg.occluder_min_pixels, backend=cfg.backend) if cfg.occluders else {}
+    occ_mask = torch.from_numpy(np.isin(ids, list(occ))) & ~removed_mask
+    base = original.subset(~occ_mask)  # the original without occluders
+    base_removed = removed_mask[~occ_mask]
+    edited = base.subset(~base_removed)
+    t["occluders_s"] = time.perf_counter() - t0
+
+    # 3. unseen masks
+    t0 = time.perf_counter()
+    masks = [unseen_mask(base, base_removed, edited, c, visibility, cfg.unseen, cfg.backend)[0] for c in cameras]
+    if not any(m.any() for m in masks):
+        raise InputError("the unseen masks are empty in every view: nothing to inpaint (the revealed surface was seen by the training views)")
+    t["unseen_masks_s"] = time.perf_counter() - t0
+
+    # 4. 2D inpainting
+    t0 = time.perf_counter()
+    inpainter = get_inpainter(cfg.inpainter)
+    views = inpaint_views(edited, cameras, masks, inpainter, condition=cfg.condition, backend=cfg.backend)
+    consistency = reprojection_error(views)
+    t["inpaint_2d_s"] = time.perf_counter() - t0
+
+    # 5. initialisation
+    t0 = time.perf_counter()
+    if cfg.depth_init:
+        new = depth_guided_init(views, sh_degree=edited.sh_degree)
+    else:
+        box = original.means[removed_mask].detach().numpy()
+        new = naive_init(views, box.min(0), box.max(0), max(1, len(depth_guided_init(views, sh_degree=0))), seed=cfg.refine.seed, sh_degree=edited.sh_degree)
+    t["init_s"] = time.perf_counter() - t0
+
+    # 6. 3D inpainting, occluders back
+    t0 = time.perf_counter()
+    bar = tqdm(total=cfg.refine.resolved().iterations, desc="3D inpainting", disable=not progress, dynamic_ncols=True)
+    refined, log = refine(edited, new, views, cfg.refine, extent=scene.extent, progress=bar.update)
+    bar.close()
+    occ_g = original.subset(occ_mask)
+    final = Gaussians(**{k: torch.cat([getattr(refined, k), getattr(occ_g, k).detach()], 0) for k in ("means", "log_scales", "quats", "opacity_logits", "sh0", "shN")})
+    t["refine_3d_s"] = time.perf_counter() - t0
+
+    record = {
+        "config": asdict(cfg),
+        "views": cfg.views,
+        "num_views": len(cameras),
+        "trajectory": trajectory,
+        "occluders": {str(k): v for k, v in occ.items()},
+        "occluder_gaussians": int(occ_mask.sum()),
+        "fill_share_per_view": [float(m.mean()) for m in masks],
+        "filled_from_earlier_views": float(sum(v.from_condition.sum() for v in views) / max(sum(v.mask.sum() for v in views), 1)),
+        "reprojection_error": consistency,
+        "new_gaussians": len(new),
+        "final_gaussians": len(final),
+        "refine_log": log,
+        "seconds": {k: round(v, 2) for k, v in t.items()},
+    }
+    return final, record, views
+
+
+@torch.no_grad()
+def _grid(before: list[np.ndarray], after: list[np.ndarray]) -> np.ndarray:
+    """Rows: before (top) and after (bottom); columns: views."""
+    return np.concatenate([np.concatenate(before, axis=1), np.concatenate(after, axis=1)], axis=0)
+
+
+@torch.no_grad()
+def write_inpainting(
+    final: Gaussians,
+    original: Gaussians,
+    record: dict,
+    views: list,
+    scene: Scene,
+    out: str | Path,
+    *,
+    backend: str = "auto",
+    overwrite: bool = False,
+) -> None:
+    """``out``: point_cloud.ply, virtual_cameras.json, views/ (2D inpainting results), renders/test/
+    (the final scene at the test_ cameras), grid.png (before/after), trajectory.gif, inpaint.json."""
+    from PIL import Image
+
+    out = Path(out)
+    test_views = scene.test_views
+    with atomic_dir(out, overwrite=overwrite) as tmp:
+        write_ply(tmp / "point_cloud.ply", final)
+        (tmp / "virtual_cameras.json").write_text(json.dumps({"cameras": cameras_to_json([v.camera for v in views])}, indent=1) + "\n")
+        frames = []
+        for v in views:
+            write_image(tmp / "views" / f"{v.camera.name}.png", v.color)
+            write_mask(tmp / "views" / f"{v.camera.name}_mask.png", v.mask)
+            frames.append(render(final, v.camera, backend=backend).color.clamp(0, 1).numpy())
+        if frames:
+            imgs = [Image.fromarray((f * 255 + 0.5).astype(np.uint8)) for f in frames]
+            imgs[0].save(tmp / "trajectory.gif", save_all=True, append_images=imgs[1:], duration=80, loop=0)
+        before, after = [], []
+        renders = tmp / "renders" / "test"
+        for v in test_views:
+            a = render(final, v.camera, backend=backend).color.clamp(0, 1)
+            write_image(renders / f"{v.stem}.png", a)
+            if len(before) < 4:
+                before.append(render(original, v.camera, backend=backend).color.clamp(0, 1).numpy())
+                after.append(a.numpy())
+        if before:
+            write_image(tmp / "grid.png", _grid(before, after))
+        (tmp / "inpaint.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
