@@ -37,7 +37,7 @@ from inpaint360gs.render.api import RenderOutput, render
 
 @dataclass
 class UnseenConfig:
-    depth_tol: float = 0.03  # a training view sees a point when its depth there agrees within this share of the distance
+    depth_tol: float = 0.01  # a training view sees a point when nothing there is nearer by more than this share of the distance
     min_alpha: float = 0.5  # below this the edited scene shows a hole
     footprint_share: float = 0.5  # footprint: the removed Gaussians gave at least this share of the colour
     min_component: int = 8  # specks smaller than this many pixels are dropped
