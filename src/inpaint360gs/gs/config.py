@@ -61,7 +61,7 @@ class DensifyConfig:
 
 @dataclass
 class TrainConfig:
-    """Everything that determines a 3DGS training run (with ``seed``; see trainer.py on determinism)."""
+    """Everything that determines a 3DGS training run (with ``seed``, it is deterministic)."""
 
     iterations: int = ORIGINAL_ITERATIONS
     seed: int = 0

@@ -4,7 +4,7 @@ Written by hand because no library offers a CPU Gaussian rasterizer with a backw
 algorithm is the original 3DGS CUDA one (front-to-back with early stop; back-to-front backward
 that recomputes alpha and T, with the "colour accumulated behind" trick). The loop structure is
 chosen for LLVM's vectoriser, which is what makes it fast:
-- 16x16 tiles dealt round robin, longest list first, to one prange iteration per thread; in a tile,
+- 16x16 tiles dealt round robin, longest list first, to one worker per thread; in a tile,
   Gaussians in the outer loop and pixels in a branch-free inner loop; a tile stops when all its
   pixels have;
 - a Gaussian only visits the tile rows where its alpha can reach 1/255 (exact ellipse extent, made
@@ -14,18 +14,37 @@ chosen for LLVM's vectoriser, which is what makes it fast:
   separate arrays need runtime alias checks;
 - ``error_model="numpy"``: Python's ZeroDivisionError check is an early exit that blocks it too;
 - each pass of the backward is its own small function (loop-local names reused across loops in
-  one function turn into live-out values that the vectoriser rejects).
+  one function turn into live-out values that the vectoriser rejects); numba inlines them, giving
+  each inlined copy fresh names.
 Gradients are written per (tile, Gaussian) intersection and summed afterwards in a fixed order,
 so results are deterministic whatever the thread count. Everything is float32.
+
+Every entry kernel (``bin_gaussians``, ``pack``, the forward and backward workers, ``reduce_rows``)
+holds all of its floating-point code itself: the helpers are ``inline="always"`` and there is no
+``prange`` (numba's own helpers that stay linked in, such as argsort, cumsum and min/max, hold no
+fast-math arithmetic). That makes the process that compiles the kernels compute the same bits as the
+processes that load them from the on-disk cache. Numba compiles a jitted function that a kernel
+calls, and the body of a ``prange`` loop, as a library of its own, loads it into the process's JIT,
+and links a copy of it into the caller, where LLVM optimises it once more; with fastmath
+(``reassoc``, ``contract``) the two copies round differently. The JIT binds a call to the first
+definition of the symbol it has loaded: in the compiling process the callee's own library, in a
+process that loads the caller from the cache the caller's copy. (Before this layout, cold- and
+warm-cache training runs differed from the first step on.) So forward and backward run one ``nogil``
+worker kernel per thread on Python threads (:func:`_run_workers`), and ``pack`` is serial (0.2 ms at
+30k Gaussians). The projection kernels (:mod:`.numba_projection`) keep ``prange``: without fastmath
+a re-optimised copy computes the same IEEE results. ``tests/test_numba_cold_warm.py`` checks both.
 Import through :mod:`inpaint360gs.render.numba_backend`, which sets up the on-disk cache first.
 """
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor, wait
+
 import numpy as np
 
 import inpaint360gs.render.numba_cache  # noqa: F401  (sets the cache folder before the kernels are defined)
-from numba import njit, prange  # isort: skip
+from numba import njit  # isort: skip
 
 from inpaint360gs.render.tiles import ALPHA_MAX, ALPHA_MIN, T_MIN, TILE
 
@@ -58,6 +77,32 @@ _F_ROWS = 3
 # backward state rows; channel c then owns rows _B_ROWS + 3c + (0: colour behind, 1: last colour, 2: dL/dpixel)
 _B_T, _B_TFIN, _B_DTFIN, _B_LA, _B_L, _B_OK, _B_A, _B_G, _B_W, _B_DLA = (U(i * NPIX) for i in range(10))
 _B_ROWS = 10
+
+
+_pool: tuple[int, int, ThreadPoolExecutor] | None = None  # (pid that made it, size, pool); a forked child makes its own
+
+
+def _run_workers(kernel, n_workers: int, args: tuple) -> None:
+    """``kernel(w, n_workers, *args)`` for w = 0 .. n_workers-1 at once: w = 0 here, the others on pool threads.
+
+    The kernels release the GIL and each worker writes only its own tiles, so the result does not depend
+    on ``n_workers``. Python threads rather than ``prange``: see the module docstring.
+    """
+    global _pool
+    if n_workers <= 1:
+        kernel(0, 1, *args)
+        return
+    if _pool is None or _pool[0] != os.getpid() or _pool[1] < n_workers - 1:
+        if _pool is not None and _pool[0] == os.getpid():
+            _pool[2].shutdown(wait=False)
+        _pool = (os.getpid(), n_workers - 1, ThreadPoolExecutor(max_workers=n_workers - 1, thread_name_prefix="numba-raster"))
+    futures = [_pool[2].submit(kernel, w, n_workers, *args) for w in range(1, n_workers)]
+    try:
+        kernel(0, n_workers, *args)
+    finally:
+        wait(futures)  # never return (or raise) while a worker still writes into the outputs
+    for f in futures:
+        f.result()
 
 
 @njit(inline="always", **_OPTS)
@@ -105,7 +150,7 @@ def bin_gaussians(means2d, radii, depths, tiles_x, tiles_y):
     return offsets, gids
 
 
-@njit(parallel=True, **_OPTS)
+@njit(**_OPTS)
 def pack(means2d, conics, opac):
     """Per-Gaussian (u, v, conic a, b, c, opacity, row extent, 0) in one cache-friendly (N, 8) array.
 
@@ -114,7 +159,7 @@ def pack(means2d, conics, opac):
     """
     n = means2d.shape[0]
     pk = np.empty((n, 8), np.float32)
-    for i in prange(n):
+    for i in range(n):
         a, b, c = conics[i, 0], conics[i, 1], conics[i, 2]
         o = opac[i]
         tau = f32(2.0) * np.log(_TAU_SCALE * o) if o > _ZERO else f32(-1.0)
@@ -141,7 +186,7 @@ def _power(p, mx, my, ca, cb, cc, xb, yb):
     return -_HALF * (ca * dx * dx + cc * dy * dy) - cb * dx * dy
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _fwd_gaussian(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb, kr):
     """Composite one Gaussian over pixels [lo, hi) of a tile; returns (pixels stopped, pixels added)."""
     n_stop = 0
@@ -162,7 +207,7 @@ def _fwd_gaussian(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb, kr):
     return n_stop, n_add
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _fwd_accumulate(st, lo, hi, base, col):
     for p in range(lo, hi):
         st[base + p] += st[_F_W + p] * col
@@ -171,7 +216,7 @@ def _fwd_accumulate(st, lo, hi, base, col):
 _F_A0, _F_A1, _F_A2, _F_A3 = (U((_F_ROWS + c) * NPIX) for c in range(4))
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _fwd_accumulate4(st, lo, hi, c0, c1, c2, c3):
     """Channels 0-3 (rgb + depth, the training case) in one loop with constant row offsets."""
     for p in range(lo, hi):
@@ -182,7 +227,7 @@ def _fwd_accumulate4(st, lo, hi, c0, c1, c2, c3):
         st[_F_A3 + p] += w * c3
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _forward_tile(t, st, pk, channels, offsets, gids, width, height, tiles_x, img, t_final, last_out):
     """Composite tile ``t`` front to back into the image rows it covers; returns the pixel evaluations done."""
     C = channels.shape[1]
@@ -231,28 +276,31 @@ def _forward_tile(t, st, pk, channels, offsets, gids, width, height, tiles_x, im
     return evals
 
 
-@njit(parallel=True, **_OPTS)
+@njit(nogil=True, **_OPTS)
+def _forward_worker(w, n_workers, pk, channels, offsets, gids, order, width, height, tiles_x, img, t_final, last_out, n_eval):
+    """Worker ``w`` of ``n_workers``: tiles order[w], order[w + n_workers], ... (see :func:`forward`)."""
+    C = channels.shape[1]
+    st = np.empty((_F_ROWS + C) * NPIX, np.float32)
+    for j in range(w, order.shape[0], n_workers):
+        t = order[j]
+        n_eval[t] = _forward_tile(t, st, pk, channels, offsets, gids, width, height, tiles_x, img, t_final, last_out)
+
+
 def forward(pk, channels, offsets, gids, order, n_workers, width, height, tiles_x):
     """Front-to-back compositing -> (image (H,W,C), T_final (H,W), last contributor (H,W), evaluations per tile).
 
     ``order`` lists the non-empty tiles, longest list first; worker w takes tiles w, w + n_workers, ...
     (a static round robin over cost-sorted tiles balances the threads without a scheduler).
     """
-    n_tiles = offsets.shape[0] - 1
-    C = channels.shape[1]
-    img = np.zeros((height, width, C), np.float32)
+    img = np.zeros((height, width, channels.shape[1]), np.float32)
     t_final = np.ones((height, width), np.float32)
     last_out = np.full((height, width), -1, np.int64)
-    n_eval = np.zeros(n_tiles, np.int64)
-    for w in prange(n_workers):
-        st = np.empty((_F_ROWS + C) * NPIX, np.float32)
-        for j in range(w, order.shape[0], n_workers):
-            t = order[j]
-            n_eval[t] = _forward_tile(t, st, pk, channels, offsets, gids, width, height, tiles_x, img, t_final, last_out)
+    n_eval = np.zeros(offsets.shape[0] - 1, np.int64)
+    _run_workers(_forward_worker, n_workers, (pk, channels, offsets, gids, order, width, height, tiles_x, img, t_final, last_out, n_eval))
     return img, t_final, last_out, n_eval
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _bwd_pass1(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb, kr):
     """Recompute alpha where this Gaussian contributed and undo its factor of T; returns how many pixels."""
     n_ok = 0
@@ -273,7 +321,7 @@ def _bwd_pass1(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb, kr):
     return n_ok
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _bwd_pass2(st, lo, hi, base, col):
     """One channel: its gradient sum_p a*T*dL/dpix, and its share of dL/dalpha via the colour behind (CUDA trick)."""
     gsum = _ZERO
@@ -293,7 +341,7 @@ def _bwd_pass2(st, lo, hi, base, col):
 _B_C = tuple(U((_B_ROWS + 3 * c + j) * NPIX) for c in range(4) for j in range(3))  # (behind, last, dL/dpix) x 4
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _bwd_pass2_4(st, lo, hi, c0, c1, c2, c3):
     """_bwd_pass2 for channels 0-3 in one loop with constant row offsets; returns their four gradients."""
     g0 = _ZERO
@@ -326,7 +374,7 @@ def _bwd_pass2_4(st, lo, hi, c0, c1, c2, c3):
     return g0, g1, g2, g3
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _bwd_pass3(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb):
     """dL/dalpha -> gradients of opacity, 2D mean and conic, summed over the pixels."""
     s_mx = _ZERO
@@ -356,7 +404,7 @@ def _bwd_pass3(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb):
     return s_mx, s_my, s_ca, s_cb, s_cc, s_o
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _backward_tile(t, st, rows, pk, channels, offsets, gids, width, height, tiles_x, t_final, last_idx, d_img, d_alpha):
     """Back-to-front gradient of tile ``t``: fills the rows of its intersections."""
     C = channels.shape[1]
@@ -407,18 +455,22 @@ def _backward_tile(t, st, rows, pk, channels, offsets, gids, width, height, tile
         rows[k, 5] = s_o
 
 
-@njit(parallel=True, **_OPTS)
+@njit(nogil=True, **_OPTS)
+def _backward_worker(w, n_workers, pk, channels, offsets, gids, order, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, rows):
+    """Worker ``w`` of ``n_workers`` of :func:`backward` (tiles dealt as in :func:`forward`)."""
+    C = channels.shape[1]
+    st = np.empty((_B_ROWS + 3 * C) * NPIX, np.float32)
+    for j in range(w, order.shape[0], n_workers):
+        _backward_tile(order[j], st, rows, pk, channels, offsets, gids, width, height, tiles_x, t_final, last_idx, d_img, d_alpha)
+
+
 def backward(pk, channels, offsets, gids, order, n_workers, width, height, tiles_x, t_final, last_idx, d_img, d_alpha):
     """Back-to-front gradient -> rows (I, 6+C): intersection k's gradient w.r.t. (u, v, conic a, b, c, opacity, channels).
 
     Work is split over tiles as in :func:`forward`.
     """
-    C = channels.shape[1]
-    rows = np.zeros((gids.shape[0], 6 + C), np.float32)
-    for w in prange(n_workers):
-        st = np.empty((_B_ROWS + 3 * C) * NPIX, np.float32)
-        for j in range(w, order.shape[0], n_workers):
-            _backward_tile(order[j], st, rows, pk, channels, offsets, gids, width, height, tiles_x, t_final, last_idx, d_img, d_alpha)
+    rows = np.zeros((gids.shape[0], 6 + channels.shape[1]), np.float32)
+    _run_workers(_backward_worker, n_workers, (pk, channels, offsets, gids, order, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, rows))
     return rows
 
 

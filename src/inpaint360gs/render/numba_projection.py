@@ -22,7 +22,10 @@ from inpaint360gs.core.camera import Camera
 from inpaint360gs.render.numba_backend import _np32, _set_threads
 from inpaint360gs.render.sh import SH_C0, SH_C1, SH_C2, SH_C3
 
-_OPTS = {"error_model": "numpy", "cache": True}  # no fastmath: radii and culling must match the reference
+# no fastmath: radii and culling must match the reference. It also keeps prange safe for cold/warm-cache
+# reproducibility: a prange body is linked into the kernel as a second, re-optimised copy, and without
+# fastmath LLVM may not change its results (see the numba_kernels module docstring).
+_OPTS = {"error_model": "numpy", "cache": True}
 _CHUNK = 256  # Gaussians per parallel work item
 
 
