@@ -21,7 +21,7 @@ import torch
 from scene_builder import orbit_cameras, write_model, write_png
 
 import inpaint360gs
-from inpaint360gs.gs.gaussians import SH_C0, Gaussians
+from inpaint360gs.core.gaussians import SH_C0, Gaussians
 
 pytest.importorskip("numba")
 pytestmark = pytest.mark.slow  # ~1.5 min on 2 cores: one process compiles the kernels (~30-60 s), one loads them
