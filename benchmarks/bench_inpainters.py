@@ -106,8 +106,8 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, nargs="+", default=[DEFAULT_DATA], help="folders of scenes")
     ap.add_argument("--scenes", nargs="+", help="scene names (default: every scene folder with test views)")
-    ap.add_argument("--rgb", nargs="+", help=f"RGB methods (default: {' '.join(m for m in RGB_METHODS if m != 'lama')}, + lama with --lama-onnx)")
-    ap.add_argument("--depth", nargs="+", help="depth methods (default: all, lama only with --lama-onnx)")
+    ap.add_argument("--rgb", nargs="+", help=f"RGB methods, 'none', or variants name:key=value,... (default: {' '.join(m for m in RGB_METHODS if m != 'lama')}, + lama with --lama-onnx)")
+    ap.add_argument("--depth", nargs="+", help="depth methods, 'none', or variants (default: all, lama only with --lama-onnx)")
     ap.add_argument("--lama-onnx", type=Path, help="LaMa ONNX checkpoint (default: $INPAINT360GS_LAMA_ONNX)")
     ap.add_argument("--no-lpips", action="store_true")
     ap.add_argument("--seed", type=int, default=0)
@@ -120,10 +120,11 @@ def main() -> int:
     lama = args.lama_onnx or os.environ.get("INPAINT360GS_LAMA_ONNX")
     rgb_methods = args.rgb or [m for m in RGB_METHODS if m != "lama" or lama]
     depth_methods = args.depth or [m for m in DEPTH_METHODS if m != "lama" or lama]
+    rgb_methods, depth_methods = ([m for m in ms if m != "none"] for ms in (rgb_methods, depth_methods))
     opts = {"seed": args.seed, **({"lama_onnx": lama} if lama else {})}
     rgb_inp = {m: _make(m, opts) for m in rgb_methods}
     depth_inp = {m: _make(m, opts) for m in depth_methods}
-    lpips_fn, lpips_note = (None, "LPIPS column skipped (--no-lpips)") if args.no_lpips else _lpips_roi()
+    lpips_fn, lpips_note = (None, "LPIPS column skipped (--no-lpips)") if args.no_lpips or not rgb_methods else _lpips_roi()
 
     scene_dirs = []
     for root in args.data:
