@@ -180,9 +180,10 @@ def main() -> int:
     def table(rows, order, sort_key, ascending):
         df = pd.DataFrame(rows)
         agg = {c: "mean" for c in df.columns if c not in ("scene", "size", "view", "method", "s")}
-        agg["s"] = lambda s: statistics.median(s)
         agg["view"] = "count"
-        out = df.groupby("method").agg(agg).rename(columns={"view": "images", "s": "median s / image"})
+        out = df.groupby("method").agg(agg).rename(columns={"view": "images"})
+        for size in sorted(df["size"].unique(), key=lambda s: -int(s.split("x")[0])):  # median seconds per image, per size
+            out[f"median s / image {size}"] = df[df["size"] == size].groupby("method")["s"].median()
         return out.reindex(order).sort_values(sort_key, ascending=ascending)
 
     pd.set_option("display.width", 200)
