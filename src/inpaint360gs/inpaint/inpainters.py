@@ -33,13 +33,15 @@ Methods (``INPAINTERS``; ``make_inpainter(name, **options)``):
     (``n·X = c`` with ``X = z K⁻¹ (u, v, 1)`` gives ``1/z = n·K⁻¹(u, v, 1)/c``), so a planar
     surface around a hole is continued exactly, without the intrinsics.
 ``plane`` (depth only)
-    Per connected hole (8-connected), a robust least-squares fit of ``1/z = a u + b v + c`` to the
-    known pixels within ``ring`` pixels of the hole (refit on the inliers, residual below 3 robust
-    standard deviations, until they stop changing), evaluated in the hole and clamped to the range
-    of inverse depth on the ring (an affine function never leaves that range inside the ring; the
+    Per connected hole (8-connected), planes ``1/z = a u + b v + c`` fitted to the known pixels
+    within ``ring`` (6) pixels of the hole: up to ``planes`` (3) one after the other on the pixels
+    the previous ones leave (seeded RANSAC, inliers within 1% relative error or 3x the map's own
+    noise level, least-squares refits), each hole pixel taking the plane of its nearest inlier ring
+    pixel, so a hole across a floor and a wall continues both. The fill is clamped to the range of
+    inverse depth on the ring (an affine function never leaves that range inside the ring; the
     clamp only acts where the fit extrapolates, at holes touching the image border, and keeps the
-    depth positive past a horizon). Exact for a planar surround; the holes are mostly floor under
-    removed objects.
+    depth positive past a horizon). Exact for planar surroundings; the holes are mostly floor
+    under removed objects.
 ``patchmatch``
     Exemplar-based PatchMatch (Barnes et al. 2009), multi-scale, from ``patchmatch-cython``
     (``inpaint_pyramid``, 5x5 patches, its seam blending); it returns 8 bit, so its fill is 8-bit
@@ -52,8 +54,26 @@ Methods (``INPAINTERS``; ``make_inpainter(name, **options)``):
     known pixels, replicated to three channels, inpainted as an image, the channels averaged and
     the normalisation undone (the fill stays within the known depth range).
 
-Defaults — measured on the embedded benchmark's ground truth (``benchmarks/bench_inpainters.py``,
-``results/benchmarks/inpainters.txt``): DEFAULTS_MEASURED_HERE
+Defaults, measured on the embedded benchmark's ground truth (``benchmarks/bench_inpainters.py``,
+``results/benchmarks/inpainters.txt``): the object-free ``test_*`` views inpainted inside their
+unseen masks and scored inside the mask; 56 views of synthetic cone, toys (256x192) and reduced
+cone, fruits, toys (128x96); LaMa not measured (no checkpoint here).
+
+- **RGB: ``patchmatch``.** ROI LPIPS (VGG) / PSNR over mask pixels / seconds at 256x192:
+  patchmatch 0.395 / 16.17 dB / 0.19 s, telea 0.422 / 16.87 dB / 0.013 s, ns 0.425 / 16.92 dB /
+  0.008 s, harmonic 0.452 / 17.33 dB / 0.010 s. The trade-off is texture against blur: the
+  diffusion fills (harmonic, telea, ns) are smooth, which PSNR rewards (+0.7 to +1.2 dB), and
+  LPIPS and the eye penalise (the wooden floor under the removed cone: LPIPS 0.50 against 0.60);
+  PatchMatch copies texture, as the paper's LaMa synthesises it, and wins LPIPS on 3 of the 5
+  scene sets, but not on the small holes of toys at 256x192 (0.388 against telea 0.358) nor on
+  reduced fruits (0.284 against 0.256), and it is ~15x slower (still ~0.2 s a view). ``telea``
+  is the fast choice with the better PSNR.
+- **Depth: ``plane``.** Median absolute relative error in the mask (mean over views): plane
+  0.0008 (per-view median 0 on 3 of the 5 scene sets), patchmatch 0.016, harmonic 0.020, ns
+  0.027, telea 0.031; with multiplicative noise on the known depth (a stand-in for rendered depth), sigma 0.5%: plane
+  0.0012, harmonic 0.020; sigma 2%: plane 0.0058, harmonic 0.023. One plane per hole instead of up
+  to three: 0.0055 (the holes at the top of the views span the far wall and the floor); ring 3 or
+  10 pixels instead of 6 and tolerance 3% instead of 1% change little or are worse. ~0.02 s a view.
 """
 
 from __future__ import annotations
