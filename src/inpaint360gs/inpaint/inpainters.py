@@ -1,0 +1,481 @@
+"""2D inpainters for the RGB and the depth of a view (paper Sec. 3.5 "Recursive Conditional
+Inpainting" and "Depth-Guided Gaussian Initialization"; supp. B).
+
+After removal, renders of the virtual views have holes; a 2D inpainter fills the colour image and
+the rendered depth (``Σ z α T``, paper Eq. 5: the scene's own depth, no monocular depth model and
+no scale alignment), and the inpainted depth is back-projected into the new Gaussians. The paper
+uses LaMa for both. Conditioning on earlier views (part of a hole already filled) and the
+back-projection rely on the contract every inpainter here keeps:
+
+- ``inpaint_rgb(image (H, W, 3) float in [0, 1], mask (H, W) bool) -> (H, W, 3)`` and
+  ``inpaint_depth(depth (H, W) float, metres > 0 where known, mask) -> (H, W)``, same dtype as given;
+- exactly the masked pixels are filled, every other pixel is returned bit-identical (the methods
+  compute a fill, :class:`Inpainter` copies only its masked pixels into a copy of the input);
+- an empty mask returns a copy of the input; a mask covering every pixel, a shape mismatch, NaN or
+  infinite known values, or known depth <= 0 are an :class:`~inpaint360gs.core.errors.InputError`
+  (masked pixels may hold anything, NaN included: they are never read);
+- seeded where the method is random (``seed``), so the same inputs give the same bytes.
+
+Methods (``INPAINTERS``; ``make_inpainter(name, **options)``):
+
+``telea``, ``ns``
+    OpenCV ``cv2.inpaint`` (Telea's fast marching; Navier-Stokes). Run per channel on float32
+    with the known range stretched to [0, 65535]: OpenCV's fast-marching update is off by up to
+    ~1.5 units of the sample value whatever the type (a constant 8-bit image of 100 comes back
+    with 99..105 in the hole, a float image of 0.3 with -1.2..1.8), so it needs a wide value range;
+    stretched, that error is ~2e-5 of the range, and nothing is quantised to 8 bit. Depth is
+    inpainted as depth.
+``harmonic``
+    Membrane fill: the solution of Laplace's equation in the hole with the known pixels as
+    boundary values (4-neighbour, Neumann at the image border; one sparse solve). Reproduces any
+    image that is linear in the pixel coordinates exactly. Depth is filled in inverse depth: a 3D
+    plane seen by a pinhole camera has an inverse depth linear in the pixel coordinates
+    (``n·X = c`` with ``X = z K⁻¹ (u, v, 1)`` gives ``1/z = n·K⁻¹(u, v, 1)/c``), so a planar
+    surface around a hole is continued exactly, without the intrinsics.
+``plane`` (depth only)
+    Per connected hole (8-connected), planes ``1/z = a u + b v + c`` fitted to the known pixels
+    within ``ring`` (6) pixels of the hole: up to ``planes`` (3) one after the other on the pixels
+    the previous ones leave (seeded RANSAC, inliers within 1% relative error or 3x the map's own
+    noise level, least-squares refits), each hole pixel taking the plane of its nearest inlier ring
+    pixel, so a hole across a floor and a wall continues both. The fill is clamped to the range of
+    inverse depth on the ring (an affine function never leaves that range inside the ring; the
+    clamp only acts where the fit extrapolates, at holes touching the image border, and keeps the
+    depth positive past a horizon). Exact for planar surroundings; the holes are mostly floor
+    under removed objects.
+``patchmatch``
+    Exemplar-based PatchMatch (Barnes et al. 2009), multi-scale, from ``patchmatch-cython``
+    (``inpaint_pyramid``, 5x5 patches, its seam blending); it returns 8 bit, so its fill is 8-bit
+    quantised (in [0, 1] steps of 1/255). Depth goes through it as inverse depth stretched to
+    0..255 (8-bit quantised as well). Seeded.
+``lama``
+    LaMa from a user-supplied ONNX checkpoint (:mod:`inpaint360gs.inpaint.lama`; ``lama_onnx`` or
+    ``$INPAINT360GS_LAMA_ONNX``). Depth through LaMa is how this package does the paper's "depth
+    inpainted by LaMa": the known depth is normalised to [0, 1] by its minimum and maximum over the
+    known pixels, replicated to three channels, inpainted as an image, the channels averaged and
+    the normalisation undone (the fill stays within the known depth range).
+
+Defaults, measured on the embedded benchmark's ground truth (``benchmarks/bench_inpainters.py``,
+``results/benchmarks/inpainters.txt``): the object-free ``test_*`` views inpainted inside their
+unseen masks and scored inside the mask; 56 views of synthetic cone, toys (256x192) and reduced
+cone, fruits, toys (128x96); LaMa not measured (no checkpoint here).
+
+- **RGB: ``patchmatch``.** ROI LPIPS (VGG) / PSNR over mask pixels / seconds at 256x192:
+  patchmatch 0.395 / 16.17 dB / 0.19 s, telea 0.422 / 16.87 dB / 0.013 s, ns 0.425 / 16.92 dB /
+  0.008 s, harmonic 0.452 / 17.33 dB / 0.010 s. The trade-off is texture against blur: the
+  diffusion fills (harmonic, telea, ns) are smooth, which PSNR rewards (+0.7 to +1.2 dB), and
+  LPIPS and the eye penalise (the wooden floor under the removed cone: LPIPS 0.50 against 0.60);
+  PatchMatch copies texture, as the paper's LaMa synthesises it, and wins LPIPS on 3 of the 5
+  scene sets, but not on the small holes of toys at 256x192 (0.388 against telea 0.358) nor on
+  reduced fruits (0.284 against 0.256), and it is ~15x slower (still ~0.2 s a view). ``telea``
+  is the fast choice with the better PSNR.
+- **Depth: ``plane``.** Median absolute relative error in the mask (mean over views): plane
+  0.0008 (per-view median 0 on 3 of the 5 scene sets), patchmatch 0.016, harmonic 0.020, ns
+  0.027, telea 0.031; with multiplicative noise on the known depth (a stand-in for rendered depth), sigma 0.5%: plane
+  0.0012, harmonic 0.020; sigma 2%: plane 0.0058, harmonic 0.023. One plane per hole instead of up
+  to three: 0.0055 (the holes at the top of the views span the far wall and the floor); ring 3 or
+  10 pixels instead of 6 and tolerance 3% instead of 1% change little or are worse. ~0.02 s a view.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import ClassVar
+
+import cv2
+import numpy as np
+
+from inpaint360gs.core.errors import InputError
+
+DEFAULT_RGB = "patchmatch"
+DEFAULT_DEPTH = "plane"
+_STRETCH = 65535.0  # known range of a channel before cv2.inpaint (see the module docstring)
+
+
+# ----------------------------------------------------------------------------------------------
+# input checks and the composition that keeps unmasked pixels bit-identical
+
+
+def _check_mask(mask, shape: tuple[int, int]) -> np.ndarray:
+    m = np.asarray(mask)
+    if m.ndim != 2 or m.shape != shape:
+        raise InputError(f"mask has shape {m.shape}, expected {shape} (the image's height and width)", "mask")
+    if m.dtype != bool:
+        if not (np.issubdtype(m.dtype, np.integer) or np.issubdtype(m.dtype, np.floating)):
+            raise InputError(f"mask must be bool (or 0/nonzero numbers), got {m.dtype}", "mask")
+        m = m != 0
+    if m.size and m.all():
+        raise InputError("mask covers every pixel: nothing to condition the inpainting on", "mask")
+    return m
+
+
+def _check_float(a, name: str) -> np.ndarray:
+    a = np.asarray(a)
+    if not np.issubdtype(a.dtype, np.floating):
+        raise InputError(f"expected a float array, got {a.dtype}", name)
+    return a
+
+
+def check_rgb(image, mask) -> tuple[np.ndarray, np.ndarray]:
+    """(image, bool mask) after the contract's checks (module docstring)."""
+    img = _check_float(image, "image")
+    if img.ndim != 3 or img.shape[2] != 3:
+        raise InputError(f"expected an (H, W, 3) image, got shape {img.shape}", "image")
+    m = _check_mask(mask, img.shape[:2])
+    if not np.isfinite(img[~m]).all():
+        raise InputError("NaN or infinite values at known (unmasked) pixels", "image")
+    return img, m
+
+
+def check_depth(depth, mask) -> tuple[np.ndarray, np.ndarray]:
+    """(depth, bool mask) after the contract's checks (module docstring)."""
+    d = _check_float(depth, "depth")
+    if d.ndim != 2:
+        raise InputError(f"expected an (H, W) depth map, got shape {d.shape}", "depth")
+    m = _check_mask(mask, d.shape)
+    known = d[~m]
+    if not np.isfinite(known).all():
+        raise InputError("NaN or infinite values at known (unmasked) pixels", "depth")
+    if known.size and known.min() <= 0:
+        raise InputError(f"known depth must be > 0 (min {float(known.min()):.4g}); put pixels without a surface in the mask", "depth")
+    return d, m
+
+
+def _compose(src: np.ndarray, mask: np.ndarray, fill: np.ndarray) -> np.ndarray:
+    out = src.copy()
+    out[mask] = fill[mask].astype(src.dtype, copy=False)
+    return out
+
+
+# ----------------------------------------------------------------------------------------------
+# methods: each computes a fill for a float64 (H, W, C) array; only its masked pixels are used
+
+
+def _cv_fill(x: np.ndarray, mask: np.ndarray, flag: int, radius: float) -> np.ndarray:
+    """cv2.inpaint per channel on float32 with the known range stretched to [0, 65535]."""
+    m8 = mask.astype(np.uint8)
+    out = np.empty_like(x)
+    for c in range(x.shape[2]):
+        ch = x[..., c]
+        known = ch[~mask]
+        lo, hi = float(known.min()), float(known.max())
+        if hi - lo <= 0:
+            out[..., c] = lo
+            continue
+        s = np.where(mask, 0.0, (ch - lo) * (_STRETCH / (hi - lo))).astype(np.float32)
+        r = cv2.inpaint(s, m8, float(radius), flag)
+        out[..., c] = r.astype(np.float64) * ((hi - lo) / _STRETCH) + lo
+    return out
+
+
+def harmonic_fill(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Solution of Laplace's equation in the hole with the known pixels as Dirichlet values
+    (4-neighbour stencil, Neumann at the image border); x (H, W, C) float64."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import spsolve
+
+    h, w = mask.shape
+    idx = -np.ones((h, w), dtype=np.int64)
+    ys, xs = np.nonzero(mask)
+    n = ys.size
+    idx[ys, xs] = np.arange(n)
+    rows, cols, vals = [np.arange(n)], [np.arange(n)], []
+    deg = np.zeros(n)
+    rhs = np.zeros((n, x.shape[2]))
+    for dy, dx in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        ny, nx = ys + dy, xs + dx
+        inside = (ny >= 0) & (ny < h) & (nx >= 0) & (nx < w)
+        deg += inside
+        p, qy, qx = np.nonzero(inside)[0], ny[inside], nx[inside]
+        q = idx[qy, qx]
+        unk = q >= 0
+        rows.append(p[unk])
+        cols.append(q[unk])
+        vals.append(-np.ones(int(unk.sum())))
+        np.add.at(rhs, p[~unk], x[qy[~unk], qx[~unk]])
+    a = sp.csr_matrix((np.concatenate([deg, *vals]), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    sol = spsolve(a.tocsc(), rhs)
+    out = x.copy()
+    out[ys, xs] = sol.reshape(n, -1)
+    return out
+
+
+def _ransac_plane(design: np.ndarray, vals: np.ndarray, tol: np.ndarray, rng: np.random.Generator, trials: int = 64) -> np.ndarray | None:
+    """Inliers of the best plane through ``vals`` (RANSAC on 3 points with inlier threshold ``tol``,
+    then least-squares refits on the inliers, the threshold tightened to 3 robust standard deviations
+    of their residuals, until they stop changing), or None when no 3 of the points span a plane."""
+    n = vals.size
+    if n < 3 or np.linalg.matrix_rank(design) < 3:
+        return None
+    best, best_count = None, -1
+    for _ in range(trials):
+        pick = rng.choice(n, 3, replace=False)
+        a = design[pick]
+        if abs(np.linalg.det(a)) < 1e-12:
+            continue
+        inl = np.abs(design @ np.linalg.solve(a, vals[pick]) - vals) <= tol
+        if inl.sum() > best_count:
+            best, best_count = inl, int(inl.sum())
+    if best is None:
+        return None
+    for _ in range(10):
+        if best.sum() < 3 or np.linalg.matrix_rank(design[best]) < 3:
+            break
+        coef = np.linalg.lstsq(design[best], vals[best], rcond=None)[0]
+        res = np.abs(design @ coef - vals)
+        # tighten to 3 robust standard deviations of the inliers' residuals: points of another
+        # surface near the planes' intersection pass ``tol`` but would tilt the fit
+        thr = np.minimum(tol, np.maximum(3.0 * 1.4826 * np.median(res[best]), 1e-6 * np.abs(vals)))
+        new = res <= thr
+        if new.sum() < 3 or np.array_equal(new, best):
+            break
+        best = new
+    return best
+
+
+def relative_noise(x: np.ndarray, mask: np.ndarray) -> float:
+    """Robust noise level of ``x`` relative to its value: 1.4826 x the median of |x - median3x3(x)| / |x|
+    over the known pixels whose 3x3 neighbourhood is known (0 for a piecewise-smooth exact map,
+    ~1.1 sigma for multiplicative noise of standard deviation sigma)."""
+    inner = cv2.erode((~mask).astype(np.uint8), np.ones((3, 3), np.uint8), borderType=cv2.BORDER_CONSTANT, borderValue=0).astype(bool)
+    if inner.sum() < 9:
+        return 0.0
+    med = cv2.medianBlur(x.astype(np.float32), 3).astype(np.float64)
+    rel = np.abs(x[inner] - med[inner]) / np.maximum(np.abs(x[inner]), 1e-12)
+    return float(1.4826 * np.median(rel))
+
+
+def plane_fill(
+    inv: np.ndarray, mask: np.ndarray, ring: int = 6, planes: int = 3, tol: float = 0.01, min_share: float = 0.15, seed: int = 0
+) -> np.ndarray:
+    """Per 8-connected hole, planes fitted to ``inv`` (H, W) over the known pixels within ``ring``
+    pixels, evaluated in the hole and clamped to the ring's range (module docstring).
+
+    Up to ``planes`` planes are fitted one after the other (RANSAC, inliers within a relative error
+    of ``tol`` or 3 times the image's noise level, whichever is larger; refined by least squares) on the ring pixels the previous planes leave, while at least
+    ``min_share`` of the ring is left; each hole pixel takes the plane of its nearest inlier ring
+    pixel. Fewer than 3 non-collinear ring pixels: the median of the ring.
+    """
+    from scipy.spatial import cKDTree
+
+    h, w = mask.shape
+    out = inv.copy()
+    rng = np.random.default_rng(seed)
+    tol = max(tol, 3.0 * relative_noise(inv, mask))
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask.astype(np.uint8), connectivity=8)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * ring + 1, 2 * ring + 1))
+    for k in range(1, count):
+        x0, y0, bw, bh = stats[k, :4]
+        ya, yb = max(0, y0 - ring), min(h, y0 + bh + ring)
+        xa, xb = max(0, x0 - ring), min(w, x0 + bw + ring)
+        comp = labels[ya:yb, xa:xb] == k
+        near = cv2.dilate(comp.astype(np.uint8), kernel).astype(bool) & ~mask[ya:yb, xa:xb]
+        ry, rx = np.nonzero(near)
+        hy, hx = np.nonzero(comp)
+        vals = inv[ya:yb, xa:xb][near]
+        if vals.size == 0:  # a hole always borders known pixels unless the mask is full (refused)
+            continue
+        cy, cx, sc = ry.mean(), rx.mean(), max(1.0, float(max(bh, bw)))  # well-conditioned coordinates
+        design = np.stack([(rx - cx) / sc, (ry - cy) / sc, np.ones(rx.size)], axis=1)
+        hole = np.stack([(hx - cx) / sc, (hy - cy) / sc, np.ones(hx.size)], axis=1)
+        free = np.ones(vals.size, dtype=bool)
+        owner = -np.ones(vals.size, dtype=np.int64)
+        coefs = []
+        while len(coefs) < planes and free.sum() >= max(3, min_share * vals.size if coefs else 3):
+            idx = np.nonzero(free)[0]
+            inl = _ransac_plane(design[idx], vals[idx], tol * np.abs(vals[idx]), rng)
+            if inl is None or inl.sum() < 3:
+                break
+            sel = idx[inl]
+            coefs.append(np.linalg.lstsq(design[sel], vals[sel], rcond=None)[0])
+            owner[sel] = len(coefs) - 1
+            free[sel] = False
+        if not coefs:
+            pred = np.full(hy.size, float(np.median(vals)))
+        else:
+            have = owner >= 0
+            _, nearest = cKDTree(np.stack([ry[have], rx[have]], 1)).query(np.stack([hy, hx], 1))
+            which = owner[have][nearest]
+            pred = np.einsum("ij,ij->i", hole, np.asarray(coefs)[which])
+        out[ya + hy, xa + hx] = np.clip(pred, vals.min(), vals.max())
+    return out
+
+
+def _patchmatch(img255: np.ndarray, mask: np.ndarray, seed: int, patch_size: int) -> np.ndarray:
+    try:
+        from patchmatch_cython import inpaint_pyramid
+    except ImportError:
+        raise InputError("the patchmatch inpainter needs patchmatch-cython (pip install patchmatch-cython)", "patchmatch") from None
+    return inpaint_pyramid(img255.astype(np.float32), mask, patch_size=patch_size, seed=int(seed)).astype(np.float64)
+
+
+# ----------------------------------------------------------------------------------------------
+# the interface and the registry
+
+
+@dataclass
+class Inpainter:
+    """Base class: ``rgb(image, mask)`` and ``depth(depth, mask)`` check the inputs, call the
+    method's ``_fill_rgb`` / ``_fill_depth`` (float64 in, a full-frame fill out) and copy only the
+    masked pixels of the fill into a copy of the input."""
+
+    name: ClassVar[str] = ""
+    supports_rgb: ClassVar[bool] = True
+    supports_depth: ClassVar[bool] = True
+
+    def rgb(self, image, mask) -> np.ndarray:
+        img, m = check_rgb(image, mask)
+        if not self.supports_rgb:
+            raise InputError(f"the {self.name} inpainter fills depth only", "method")
+        if not m.any():
+            return img.copy()
+        src = np.where(m[..., None], 0.0, img.astype(np.float64))
+        return _compose(img, m, self._fill_rgb(src, m))
+
+    def depth(self, depth, mask) -> np.ndarray:
+        d, m = check_depth(depth, mask)
+        if not self.supports_depth:
+            raise InputError(f"the {self.name} inpainter fills colour only", "method")
+        if not m.any():
+            return d.copy()
+        src = np.where(m, 1.0, d.astype(np.float64))
+        return _compose(d, m, self._fill_depth(src, m))
+
+    def _fill_rgb(self, img: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _fill_depth(self, depth: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+
+@dataclass
+class CvInpainter(Inpainter):
+    """OpenCV Telea (``flag`` 1) or Navier-Stokes (``flag`` 0) with inpainting radius ``radius``."""
+
+    radius: float = 3.0
+    flag: ClassVar[int] = cv2.INPAINT_TELEA
+
+    def _fill_rgb(self, img, mask):
+        return _cv_fill(img, mask, self.flag, self.radius)
+
+    def _fill_depth(self, depth, mask):
+        return _cv_fill(depth[..., None], mask, self.flag, self.radius)[..., 0]
+
+
+@dataclass
+class TeleaInpainter(CvInpainter):
+    name: ClassVar[str] = "telea"
+    flag: ClassVar[int] = cv2.INPAINT_TELEA
+
+
+@dataclass
+class NSInpainter(CvInpainter):
+    name: ClassVar[str] = "ns"
+    flag: ClassVar[int] = cv2.INPAINT_NS
+
+
+@dataclass
+class HarmonicInpainter(Inpainter):
+    """Membrane (Laplace) fill; depth in inverse depth."""
+
+    name: ClassVar[str] = "harmonic"
+
+    def _fill_rgb(self, img, mask):
+        return harmonic_fill(img, mask)
+
+    def _fill_depth(self, depth, mask):
+        return 1.0 / harmonic_fill((1.0 / depth)[..., None], mask)[..., 0]
+
+
+@dataclass
+class PlaneInpainter(Inpainter):
+    """Robust plane per hole in inverse depth, fitted within ``ring`` pixels of the hole."""
+
+    name: ClassVar[str] = "plane"
+    supports_rgb: ClassVar[bool] = False
+    ring: int = 6
+    planes: int = 3
+    tol: float = 0.01
+    seed: int = 0
+
+    def _fill_depth(self, depth, mask):
+        return 1.0 / plane_fill(1.0 / depth, mask, ring=self.ring, planes=self.planes, tol=self.tol, seed=self.seed)
+
+
+@dataclass
+class PatchMatchInpainter(Inpainter):
+    """Multi-scale PatchMatch (patchmatch-cython), seeded."""
+
+    name: ClassVar[str] = "patchmatch"
+    seed: int = 0
+    patch_size: int = 5
+
+    def _fill_rgb(self, img, mask):
+        return _patchmatch(np.clip(img, 0.0, 1.0) * 255.0, mask, self.seed, self.patch_size) / 255.0
+
+    def _fill_depth(self, depth, mask):
+        inv = 1.0 / depth
+        lo, hi = float(inv[~mask].min()), float(inv[~mask].max())
+        if hi - lo <= 0:
+            return np.full_like(depth, 1.0 / lo)
+        s = (inv - lo) * (255.0 / (hi - lo))
+        f = _patchmatch(s[..., None], mask, self.seed, self.patch_size)[..., 0]
+        return 1.0 / (f * ((hi - lo) / 255.0) + lo)
+
+
+@dataclass
+class LamaInpainter(Inpainter):
+    """LaMa from an ONNX checkpoint (``lama_onnx`` or ``$INPAINT360GS_LAMA_ONNX``), loaded on creation."""
+
+    name: ClassVar[str] = "lama"
+    lama_onnx: str | Path | None = None
+    output_range: str = "auto"
+
+    def __post_init__(self):
+        from inpaint360gs.inpaint.lama import LamaOnnx
+
+        self._model = LamaOnnx(self.lama_onnx, output_range=self.output_range)
+
+    def _fill_rgb(self, img, mask):
+        return self._model(img.astype(np.float32), mask).astype(np.float64)
+
+    def _fill_depth(self, depth, mask):
+        known = depth[~mask]
+        lo, hi = float(known.min()), float(known.max())
+        if hi - lo <= 0:
+            return np.full_like(depth, lo)
+        n = np.where(mask, 0.0, (depth - lo) / (hi - lo)).astype(np.float32)
+        pred = self._model(np.repeat(n[..., None], 3, axis=2), mask).astype(np.float64).mean(axis=2)
+        return pred * (hi - lo) + lo
+
+
+INPAINTERS: dict[str, type[Inpainter]] = {
+    cls.name: cls for cls in (TeleaInpainter, NSInpainter, HarmonicInpainter, PlaneInpainter, PatchMatchInpainter, LamaInpainter)
+}
+RGB_METHODS = tuple(n for n, c in INPAINTERS.items() if c.supports_rgb)
+DEPTH_METHODS = tuple(n for n, c in INPAINTERS.items() if c.supports_depth)
+
+
+def make_inpainter(name: str, **options) -> Inpainter:
+    """The inpainter ``name`` (``INPAINTERS``) with its options (``radius``, ``ring``, ``seed``,
+    ``patch_size``, ``lama_onnx``, ``output_range``); options only another method takes are
+    ignored, so one option set can serve an RGB and a depth method; an option no method takes is
+    an InputError."""
+    cls = INPAINTERS.get(name)
+    if cls is None:
+        raise InputError(f"unknown inpainter {name!r} (choose from {', '.join(INPAINTERS)})", "method")
+    unknown = sorted(set(options) - {f for c in INPAINTERS.values() for f in c.__dataclass_fields__})
+    if unknown:
+        raise InputError(f"unknown inpainter option(s) {', '.join(unknown)}", "options")
+    fields = set(cls.__dataclass_fields__)
+    return cls(**{k: v for k, v in options.items() if k in fields})
+
+
+def inpaint_rgb(image, mask, method: str = DEFAULT_RGB, **options) -> np.ndarray:
+    """Fill the masked pixels of an (H, W, 3) float image in [0, 1] with ``method``; the rest is returned unchanged."""
+    return make_inpainter(method, **options).rgb(image, mask)
+
+
+def inpaint_depth(depth, mask, method: str = DEFAULT_DEPTH, **options) -> np.ndarray:
+    """Fill the masked pixels of an (H, W) depth map (metres, > 0 where known) with ``method``; the rest is returned unchanged."""
+    return make_inpainter(method, **options).depth(depth, mask)
