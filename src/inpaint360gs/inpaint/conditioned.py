@@ -17,7 +17,7 @@ model and no scale alignment.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,14 +64,16 @@ def inpaint_views(
     edited: Gaussians,
     cameras: Sequence[Camera],
     masks: Sequence[np.ndarray],
-    inpainter,
+    fill_rgb: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    fill_depth: Callable[[np.ndarray, np.ndarray], np.ndarray],
     *,
     condition: bool = True,
     min_alpha: float = 0.5,
     backend: str = "auto",
 ) -> list[InpaintedView]:
     """Inpaint the region ``masks[i]`` of ``edited``'s render at ``cameras[i]``, in order (see the
-    module docstring). ``inpainter`` has ``inpaint_rgb(image, mask)`` and ``inpaint_depth(depth, mask)``."""
+    module docstring), with the 2D inpainters ``fill_rgb(image, mask)`` and ``fill_depth(depth, mask)``
+    (:mod:`.inpainters`)."""
     cloud: Gaussians | None = None
     out = []
     for cam, mask in zip(cameras, masks):
@@ -95,8 +97,8 @@ def inpaint_views(
         free = ~valid
         if hole.any() or free.any():
             fill = hole | free
-            color = inpainter.inpaint_rgb(color, fill)
-            depth = inpainter.inpaint_depth(np.where(fill, 0.0, depth).astype(np.float32), fill)
+            color = fill_rgb(color, fill)
+            depth = fill_depth(np.where(fill, 0.0, depth).astype(np.float32), fill)
         if hole.any():
             rows, cols = np.nonzero(hole)
             new = pixel_gaussians(cam, color, depth, rows, cols)

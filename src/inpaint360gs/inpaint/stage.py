@@ -29,7 +29,7 @@ from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.inpaint.conditioned import inpaint_views, reprojection_error
 from inpaint360gs.inpaint.init import depth_guided_init, naive_init
-from inpaint360gs.inpaint.inpainters import get_inpainter
+from inpaint360gs.inpaint.inpainters import DEFAULT_DEPTH, DEFAULT_RGB, make_inpainter
 from inpaint360gs.inpaint.refine import RefineConfig, refine
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_image, write_mask
@@ -47,7 +47,9 @@ class InpaintConfig:
     views: str = "virtual"  # "virtual" | "training": ablation c)
     condition: bool = True  # recursive conditioning; False: ablation d)
     depth_init: bool = True  # depth-guided initialisation; False: ablation b) (naive)
-    inpainter: str = "default"  # 2D inpainter (inpaint.inpainters registry)
+    rgb_inpainter: str = DEFAULT_RGB  # 2D inpainters (inpaint.inpainters registry; measured defaults there)
+    depth_inpainter: str = DEFAULT_DEPTH
+    lama_onnx: str | None = None  # LaMa checkpoint (ONNX) when an inpainter is "lama"
     occluders: bool = True  # take occluders out for inpainting, put them back after
     occluder_min_pixels: int = 10
     virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)
@@ -116,8 +118,9 @@ def inpaint_scene(
 
     # 4. 2D inpainting
     t0 = time.perf_counter()
-    inpainter = get_inpainter(cfg.inpainter)
-    views = inpaint_views(edited, cameras, masks, inpainter, condition=cfg.condition, backend=cfg.backend)
+    opts = {"seed": cfg.refine.seed, **({"lama_onnx": cfg.lama_onnx} if cfg.lama_onnx else {})}
+    rgb, dep = make_inpainter(cfg.rgb_inpainter, **opts), make_inpainter(cfg.depth_inpainter, **opts)
+    views = inpaint_views(edited, cameras, masks, rgb.rgb, dep.depth, condition=cfg.condition, backend=cfg.backend)
     consistency = reprojection_error(views)
     t["inpaint_2d_s"] = time.perf_counter() - t0
 
