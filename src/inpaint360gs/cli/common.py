@@ -220,7 +220,7 @@ def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | P
         for other, path in ins:
             if out == path or (replaced and out in path.parents):
                 what = "is" if out == path else "holds"
-                raise InputError(f"output {name} {what} the input {other} ({path}); writing it would destroy that input", outputs[name])
+                raise InputError(f"output {name} {what} the input {other} ({path}); choose another output", outputs[name])
         for other, path in outs[:i]:
             if out == path:
                 raise InputError(f"{other} and {name} are the same path; one output would overwrite the other", outputs[name])

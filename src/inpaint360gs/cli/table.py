@@ -34,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from inpaint360gs.report.tables import load_metrics, table_with_average, write_tables
 
-    check_apart({"--csv": args.csv, "--md": args.md}, {path: path for path in args.metrics})
+    check_apart({"--csv": args.csv, "--md": args.md}, {f"METRICS[{i}]": path for i, path in enumerate(args.metrics, 1)})
     title, columns, floatfmt = TABLES[args.kind]
     df = table_with_average(load_metrics(args.metrics), columns)
     write_tables(df, args.csv, args.md, title, floatfmt)
