@@ -28,6 +28,17 @@ MAINS = {"inpaint360gs": method_main, "inpaint360gs-dataset": dataset_main}
 IS_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
 
 
+@pytest.fixture(scope="module", autouse=True)
+def restore_threads():
+    """In-process ``train``/``render`` set torch's thread count (``--threads``): give the old one back.
+    Autouse in every module that imports it."""
+    import torch
+
+    old = torch.get_num_threads()
+    yield
+    torch.set_num_threads(old)
+
+
 @dataclass
 class Ctx:
     """What a case's ``make`` gets: its own folder and the shared (read-only) fixtures."""

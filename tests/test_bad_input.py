@@ -13,7 +13,7 @@ import torch
 from plyfile import PlyData, PlyElement
 
 import scene_builder as sb
-from cli_harness import Case, check, garbage_count, ids_unique, option_cases, out_cases, put, remove, run_cli, truncate
+from cli_harness import Case, check, garbage_count, ids_unique, option_cases, out_cases, put, remove, restore_threads, run_cli, truncate  # noqa: F401
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.ply import write_ply
 
@@ -21,13 +21,6 @@ T = "inpaint360gs"
 W, H = 32, 24
 # every train case: a run that wrongly goes ahead stays short; the settings of the `run` fixture
 FAST = ["--iterations", "4", "--no-progress", "--threads", "2"]
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _restore_threads():
-    old = torch.get_num_threads()
-    yield
-    torch.set_num_threads(old)
 
 
 @pytest.fixture(scope="module")

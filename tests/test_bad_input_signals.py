@@ -16,10 +16,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import torch
 
 import scene_builder as sb
-from cli_harness import run_cli, tree
+from cli_harness import restore_threads, run_cli, tree  # noqa: F401 (autouse fixture)
 from inpaint360gs.core.errors import EXIT_SIGINT, EXIT_SIGTERM
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -27,13 +26,6 @@ ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT)
 ENV.pop("INPAINT360GS_DEBUG", None)
 # torch backend: bit-identical across processes whatever state numba's kernel cache is in (gs/trainer.py)
 TRAIN = ["--iterations", "60", "--schedule-scale", "auto", "--checkpoint-every", "10", "--backend", "torch", "--threads", "2", "--no-progress"]
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _restore_threads():
-    old = torch.get_num_threads()
-    yield
-    torch.set_num_threads(old)
 
 
 @pytest.fixture(scope="module")
