@@ -12,7 +12,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "unseen-masks": ("dataset_tools.capture.unseen_cli", "derive (from object masks) or import the test views' unseen masks"),
     "synth-colmap": ("dataset_tools.capture.synth_colmap_cli", "rebuild a generated synthetic scene's poses and sparse points through COLMAP"),
     "import": ("dataset_tools.capture.import_cli", "convert a 360-USID (AuraFusion360) or SPIn-NeRF scene, removing point leaks"),
-    "validate": ("dataset_tools.capture.validate_cli", "check a scene folder (registration, masks, point leaks, split); exit 0/1"),
+    "validate": ("dataset_tools.capture.validate_cli", "check a scene folder (registration, masks, point leaks, split); exit 0 valid, 2 not"),
 }
 
 

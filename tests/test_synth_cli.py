@@ -33,8 +33,8 @@ def test_two_runs_give_identical_bytes(tmp_path):
     [
         (["--scenes", "cone", "nope"], "unknown synthetic scene 'nope'"),
         (["--scenes", "cone", "--width", "64"], "give both --width and --height"),
-        (["--scenes", "cone", "--width", "4", "--height", "4"], "out of range"),
-        (["--scenes", "cone", "--seed", "-1"], "--seed must be >= 0"),
+        (["--scenes", "cone", "--width", "4", "--height", "4"], "--width: must be >= 16"),
+        (["--scenes", "cone", "--seed", "-1"], "--seed: must be >= 0"),
     ],
 )
 def test_bad_arguments_exit_2_and_write_nothing(tmp_path, capsys, args, message):

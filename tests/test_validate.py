@@ -112,7 +112,7 @@ BREAKS = {
     "unseen mask size": (_break_mask_size, {"unseen masks"}),
     "unregistered image": (_break_unregistered, {"registration"}),
     "distortion model": (_break_distortion, {"camera model"}),
-    "no test_ views": (_break_no_test, {"split", "registration"}),  # their cameras lose their files too
+    "no test_ views": (_break_no_test, {"split", "registration", "unseen masks"}),  # their cameras and masks lose their files too
     "corrupt points3D.bin": (_break_sparse, {"sparse/0"}),
     "garbage count in points3D.bin": (_break_sparse_count, {"sparse/0"}),
     "missing sparse/": (_break_missing_sparse, {"sparse/0"}),
@@ -131,8 +131,9 @@ def test_each_broken_rule_fails_its_check(good_scene, tmp_path, capsys, case):
     report = validate_scene(s)
     assert not report.ok
     assert {c.name for c in report.failed()} == expected, report.format()
-    assert dataset_main(["validate", str(s)]) == 1
-    assert "=> FAIL" in capsys.readouterr().out
+    assert dataset_main(["validate", str(s)]) == 2
+    out, err = capsys.readouterr()
+    assert "=> FAIL" in out and len(err.splitlines()) == 1 and all(name in err for name in expected)
 
 
 def test_unseen_masks_optional_flag_and_json(good_scene, tmp_path, capsys):
@@ -148,5 +149,5 @@ def test_unseen_masks_optional_flag_and_json(good_scene, tmp_path, capsys):
 
 
 def test_missing_folder_fails_cleanly(tmp_path, capsys):
-    assert dataset_main(["validate", str(tmp_path / "nope")]) == 1
-    assert "scene folder: does not exist" in capsys.readouterr().out
+    assert dataset_main(["validate", str(tmp_path / "nope")]) == 2
+    assert "folder not found" in capsys.readouterr().err

@@ -10,38 +10,38 @@ from __future__ import annotations
 
 import argparse
 from dataclasses import fields
-from pathlib import Path
 
 from dataset_tools.capture.captures import CaptureConfig
 from dataset_tools.capture.colmap import SUPPORTED_MODELS, SfMConfig
 from dataset_tools.capture.pipeline import BuildConfig, build_dataset
+from inpaint360gs.cli.common import check_apart, existing_dir, nonneg_int, number, output_dir, positive_int
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("captures", type=Path, help="folder of photos (two sub-folders, or one folder with test_* names)")
-    p.add_argument("out", type=Path, help="scene folder to write (Inpaint360GS layout)")
+    p.add_argument("captures", type=existing_dir, help="folder of photos (two sub-folders, or one folder with test_* names)")
+    p.add_argument("out", type=output_dir, help="scene folder to write (Inpaint360GS layout)")
     p.add_argument("--matcher", choices=["exhaustive", "sequential", "auto"], default="auto",
                    help="pair selection: exhaustive for small sets, sequential (photos named in capture order) "
                         "for large ones; auto picks exhaustive up to --exhaustive-max images (default: auto)")
-    p.add_argument("--exhaustive-max", dest="exhaustive_max_images", type=int, default=150, metavar="N",
+    p.add_argument("--exhaustive-max", dest="exhaustive_max_images", type=positive_int, default=150, metavar="N",
                    help="auto: largest set matched exhaustively (150)")
-    p.add_argument("--overlap", type=int, default=10, help="sequential: neighbours per side (10)")
-    p.add_argument("--cross-pairs", type=int, default=20,
+    p.add_argument("--overlap", type=positive_int, default=10, help="sequential: neighbours per side (10)")
+    p.add_argument("--cross-pairs", type=positive_int, default=20,
                    help="sequential: object-inclusive partners per object-free photo (20)")
     p.add_argument("--camera-model", choices=SUPPORTED_MODELS, default="SIMPLE_RADIAL",
                    help="shared camera model; distortion models are undistorted to PINHOLE (SIMPLE_RADIAL)")
     p.add_argument("--camera-params", default="", help="initial intrinsics, comma-separated, in the model's order")
-    p.add_argument("--downscale", type=int, nargs="*", default=[], metavar="F",
+    p.add_argument("--downscale", type=positive_int, nargs="*", default=[], metavar="F",
                    help="also write images_F/ copies, e.g. --downscale 2 4 8")
     p.add_argument("--with-dir", default="with_objects", help="sub-folder of object-inclusive photos")
     p.add_argument("--without-dir", default="without_objects", help="sub-folder of object-free photos")
     p.add_argument("--test-prefix", default="test_", help="one-folder layout: prefix of object-free photos")
-    p.add_argument("--unseen-masks", type=Path, default=None,
+    p.add_argument("--unseen-masks", type=existing_dir, default=None,
                    help="folder of unseen masks (one per object-free photo, same stem, 255 = unseen); copied to unseen_mask/")
-    p.add_argument("--min-train-views", type=int, default=2,
+    p.add_argument("--min-train-views", type=positive_int, default=2,
                    help="keep a sparse point only when at least this many object-inclusive photos observe it "
                         "(default 2: one ray does not fix a depth; 1: drop only points no such photo sees)")
-    p.add_argument("--min-train-angle", type=float, default=1.5, metavar="DEG",
+    p.add_argument("--min-train-angle", type=number(float, lo=0.0, hi=90.0, hi_open=True), default=1.5, metavar="DEG",
                    help="... and when their rays span at least DEG degrees (default 1.5, COLMAP's minimum "
                         "triangulation angle: nearly parallel rays do not fix a depth either; 0 turns this off)")
     p.add_argument("--remove-unseen-points", action="store_true",
@@ -49,10 +49,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--skip-unreadable", action="store_true", help="skip corrupt photos (reported) instead of failing")
     p.add_argument("--require-all-registered", action="store_true",
                    help="fail when a photo cannot be registered (default: skip it and report)")
-    p.add_argument("--max-features", dest="max_num_features", type=int, default=8192, metavar="N",
+    p.add_argument("--max-features", dest="max_num_features", type=positive_int, default=8192, metavar="N",
                    help="SIFT features per image (8192)")
-    p.add_argument("--threads", dest="num_threads", type=int, default=2, metavar="N", help="COLMAP threads (2)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--threads", dest="num_threads", type=positive_int, default=2, metavar="N", help="COLMAP threads (2)")
+    p.add_argument("--seed", type=nonneg_int, default=0)
     p.add_argument("--name", dest="scene_name", default=None, help="scene name in scene.json (default: OUT's folder name)")
     p.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     p.add_argument("--verbose", action="store_true", help="show COLMAP's log")
@@ -71,6 +71,7 @@ def config_from_args(args: argparse.Namespace) -> BuildConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_apart({"OUT": args.out}, {"CAPTURES": args.captures, "--unseen-masks": args.unseen_masks})
     report = build_dataset(args.captures, args.out, config_from_args(args))
     print(report.format())
     return 0

@@ -7,13 +7,16 @@ after physically removing them):
 * one folder holding all photos, where the object-free ones are named ``test_*`` (the prefix of the
   Inpaint360GS layout; configurable) and every other photo is object-inclusive.
 
-Every photo is decoded once here, so a corrupt or truncated file, a second resolution or two photos
-that would end up under the same name are reported before any SfM work starts.
+Every photo is decoded once here, so a corrupt or truncated file, a second resolution, two photos
+that would end up under the same name and two files holding the same picture (a copy, or a
+ground-truth photo among the training photos) are reported before any SfM work starts.
 """
 
 from __future__ import annotations
 
+import hashlib
 from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -75,17 +78,42 @@ def _list_images(folder: Path, skipped: dict[str, str]) -> list[Path]:
     return files
 
 
-def read_image_size(path: Path) -> tuple[int, int]:
-    """Decode the whole file (not just the header) and return (width, height).
+def decode_image(path: Path) -> tuple[tuple[int, int], str]:
+    """Decode the whole file (not just the header); return (width, height) and a digest of the pixels.
 
-    Raises InputError for anything PIL cannot fully decode, e.g. a truncated JPEG.
+    Raises InputError for anything PIL cannot fully decode, e.g. a truncated JPEG. Equal digests mean
+    the same picture, whatever the file names or encodings.
     """
     try:
         with Image.open(path) as im:
             im.load()
-            return im.size
+            digest = hashlib.sha256(f"{im.mode} {im.size}".encode() + im.tobytes()).hexdigest()
+            return im.size, digest
     except (OSError, SyntaxError, ValueError, Image.DecompressionBombError) as e:
         raise InputError(f"cannot decode image ({e})", path) from None
+
+
+def read_image_size(path: Path) -> tuple[int, int]:
+    """(width, height) of a fully decoded image (see :func:`decode_image`)."""
+    return decode_image(path)[0]
+
+
+def refuse_duplicates(photos: Iterable[tuple[Path, str, bool]]) -> None:
+    """Raise InputError naming both files when two photos hold the same picture; ``photos`` are
+    (path, digest from :func:`decode_image`, object-free?). The same picture in the object-free and the
+    object-inclusive set puts ground truth into training (docs/architecture.md, "Scene format"); twice
+    in one set, it is a copy that weighs one view double."""
+    seen: dict[str, tuple[Path, bool]] = {}
+    for path, digest, free in photos:
+        if digest in seen:
+            other, other_free = seen[digest]
+            if free != other_free:
+                a, b = (path, other) if free else (other, path)
+                raise InputError(
+                    f"the same picture as object-inclusive {b}: a ground-truth (object-free) photo must "
+                    "not also be a training photo; remove one of them", a)
+            raise InputError(f"the same picture as {other} (a duplicate photo); remove one of them", path)
+        seen[digest] = (path, free)
 
 
 def collect_captures(root: str | Path, config: CaptureConfig | None = None) -> CaptureSet:
@@ -120,9 +148,10 @@ def collect_captures(root: str | Path, config: CaptureConfig | None = None) -> C
 
     captures: list[Capture] = []
     sizes: dict[Path, tuple[int, int]] = {}
+    digests: dict[Path, str] = {}
     for path, free in pairs:
         try:
-            sizes[path] = read_image_size(path)
+            sizes[path], digests[path] = decode_image(path)
         except InputError as e:
             if not cfg.skip_unreadable:
                 raise
@@ -130,6 +159,7 @@ def collect_captures(root: str | Path, config: CaptureConfig | None = None) -> C
             continue
         name = path.name if (not free or is_test_name(path.name, cfg.test_prefix)) else cfg.test_prefix + path.name
         captures.append(Capture(source=path, object_free=free, out_name=name))
+    refuse_duplicates((c.source, digests[c.source], c.object_free) for c in captures)
 
     # Duplicate names: masks and splits are keyed by the file stem, case-insensitively on some systems.
     seen: dict[str, Capture] = {}

@@ -61,6 +61,26 @@ class SfMConfig:
             raise InputError(
                 f"unsupported camera model '{self.camera_model}' ({', '.join(SUPPORTED_MODELS)})", "--camera-model"
             )
+        if self.camera_params:
+            parse_camera_params(self.camera_model, self.camera_params)
+
+
+def parse_camera_params(model: str, text: str) -> list[float]:
+    """Initial intrinsics ``text`` ("f,cx,cy,k", ...) for camera ``model``, checked before any SfM work:
+    the model's number of parameters, finite numbers, positive focal lengths (COLMAP would stop deep
+    inside feature extraction)."""
+    names = [n.strip() for n in pycolmap.Camera(model=model, width=1, height=1).params_info.split(",")]
+    items = [t.strip() for t in text.split(",")]
+    if len(items) != len(names):
+        raise InputError(f"{model} takes {len(names)} parameters ({', '.join(names)}), got {len(items)}: {text!r}", "--camera-params")
+    try:
+        values = [float(t) for t in items]
+    except ValueError:
+        raise InputError(f"expected {len(names)} comma-separated numbers ({', '.join(names)}), got {text!r}", "--camera-params") from None
+    for name, v in zip(names, values):
+        if not np.isfinite(v) or (name in ("f", "fx", "fy") and v <= 0):
+            raise InputError(f"{name} must be a finite number{' > 0' if name.startswith('f') else ''}, got {v:g}", "--camera-params")
+    return values
 
 
 @dataclass

@@ -26,7 +26,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from dataset_tools.capture.captures import read_image_size
+from dataset_tools.capture.captures import decode_image, read_image_size, refuse_duplicates
 from dataset_tools.capture.layout import provenance, read_mask, write_json
 from dataset_tools.capture.leaks import recolor_from_inclusive_views, remove_leaked_points
 from inpaint360gs.core.errors import InputError
@@ -67,6 +67,8 @@ def _write_scene(
     overwrite: bool,
 ) -> ImportReport:
     """``sources``: model image name -> (file, output name). Writes OUT atomically."""
+    digests = {name: decode_image(path) for name, (path, new) in sources.items()}  # every input decoded first
+    refuse_duplicates((path, digests[name][1], is_test_name(new)) for name, (path, new) in sources.items())
     rec = read_model(src / "sparse" / "0")
     bad = {c.model_name for c in rec.cameras.values()} - set(PINHOLE_MODELS)
     if bad:
@@ -80,7 +82,7 @@ def _write_scene(
             rec.deregister_frame(im.frame_id)
             continue
         path, new = sources[im.name]
-        w, h = read_image_size(path)
+        w, h = digests[im.name][0]
         cam = rec.camera(im.camera_id)
         if (w, h) != (cam.width, cam.height):
             raise InputError(f"image is {w}x{h}, its camera in sparse/0 is {cam.width}x{cam.height}", path)
@@ -97,7 +99,7 @@ def _write_scene(
         (tmp / "images").mkdir()
         for path, new in sources.values():
             if new in registered:
-                shutil.copy2(path, tmp / "images" / new)
+                shutil.copyfile(path, tmp / "images" / new)
         recolor_from_inclusive_views(rec, tmp / "images")  # colours from object-inclusive images only
         (tmp / "sparse" / "0").mkdir(parents=True)
         rec.write(tmp / "sparse" / "0")
@@ -153,7 +155,7 @@ def import_spinnerf(src: str | Path, out: str | Path, n_test: int = 40, overwrit
     src, out = Path(src), Path(out)
     files = _images(src / "images")
     if not 0 < n_test < len(files) - 1:
-        raise InputError(f"{len(files)} images cannot hold {n_test} object-free test views", src / "images")
+        raise InputError(f"{len(files)} images cannot hold --n-test {n_test} object-free views and 2 object-inclusive ones", src / "images")
     label_dirs = sorted(src.glob("images_*/label"))
     if not label_dirs:
         raise InputError("no images_<f>/label/ mask folder", src)

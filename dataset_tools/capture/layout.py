@@ -24,10 +24,11 @@ def scaled_size(width: int, height: int, factor: float) -> tuple[int, int]:
 
 
 def copy_images(src_dir: Path, names: Iterable[str], dst_dir: Path) -> None:
-    """Copy the named files unchanged (no re-encoding)."""
+    """Copy the named files' bytes unchanged (no re-encoding); the copies get the modes the umask asks
+    for, not the source's (docs/architecture.md, "Reliability")."""
     dst_dir.mkdir(parents=True, exist_ok=True)
     for name in names:
-        shutil.copy2(src_dir / name, dst_dir / name)
+        shutil.copyfile(src_dir / name, dst_dir / name)
 
 
 def write_downscaled(images_dir: Path, names: Iterable[str], out_root: Path, factors: Iterable[int]) -> dict[int, list[int]]:

@@ -137,9 +137,12 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
         staged = work / "images"
         staged.mkdir(parents=True)
         for c in cset.captures:
-            shutil.copy2(c.source, staged / c.out_name)
+            shutil.copyfile(c.source, staged / c.out_name)
 
-        sfm = run_sfm(staged, names, free_names, work, cfg.sfm, progress)
+        try:
+            sfm = run_sfm(staged, names, free_names, work, cfg.sfm, progress)
+        except InputError as e:  # it names the staged copies, a temporary folder the user never sees
+            raise InputError(e.message, captures) from None
         rec = sfm.reconstruction
         registered = {rec.image(i).name for i in rec.reg_image_ids()}
         reg_free = registered & free_names

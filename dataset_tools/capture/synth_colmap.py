@@ -18,13 +18,34 @@ from pathlib import Path
 
 import numpy as np
 
+from dataset_tools.capture.captures import read_image_size
 from dataset_tools.capture.layout import write_json
 from dataset_tools.capture.pipeline import BuildConfig, BuildReport, build_dataset
 from dataset_tools.capture.posecheck import pose_accuracy, reconstruction_poses, similarity_to_true
 from dataset_tools.capture.synth_export import export_raw_captures, orbit_radius, true_poses
+from dataset_tools.synth.scene import load_scene as load_synth_scene
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.core.layout import is_image_name
 from inpaint360gs.io.colmap import read_model
+from inpaint360gs.io.images import read_mask
+
+
+def check_inputs(truth: Path) -> None:
+    """Everything the rebuild reads from ``truth``, checked before any SfM work: the generator's
+    metadata, every image (decoded) and an unseen mask for every test view."""
+    views = load_synth_scene(truth).views
+    listed = {v.name for v in views}
+    stray = sorted(p.name for p in (truth / "images").iterdir() if is_image_name(p.name) and p.name not in listed)
+    if stray:
+        raise InputError(f"{len(stray)} image(s) not in gt/cameras.json (first: {stray[0]}); not a scene as generated", truth / "images")
+    for v in views:
+        image = truth / "images" / v.name
+        if not image.is_file():
+            raise InputError("image listed in gt/cameras.json is missing", image)
+        read_image_size(image)
+        if v.object_free:
+            read_mask(truth / "unseen_mask" / f"{Path(v.name).stem}.png")
 
 
 def build_synthetic_with_colmap(
@@ -33,17 +54,21 @@ def build_synthetic_with_colmap(
     """Rebuild generated scene ``truth`` through COLMAP into ``out`` (atomically); returns the build report."""
     truth, out = Path(truth), Path(out)
     if not (truth / "gt" / "cameras.json").is_file():
-        raise InputError("not a generated synthetic scene (gt/cameras.json missing)", truth)
+        raise InputError("not a generated synthetic scene (gt/cameras.json missing)", truth / "gt" / "cameras.json")
+    check_inputs(truth)
     cfg = config or BuildConfig()
     cfg = replace(cfg, sfm=replace(cfg.sfm, camera_model="SIMPLE_PINHOLE"), overwrite=True, scene_name=truth.name)
     with atomic_dir(out, overwrite=overwrite) as tmp, tempfile.TemporaryDirectory(dir=tmp.parent) as work:
         cap = export_raw_captures(truth, Path(work) / "captures", unseen_masks=True)
         masks = shutil.move(str(cap / "unseen_masks"), Path(work) / "unseen_masks")  # not a capture folder
         built = Path(work) / "scene"
-        report = build_dataset(cap, built, replace(cfg, unseen_masks=Path(masks)))
+        try:
+            report = build_dataset(cap, built, replace(cfg, unseen_masks=Path(masks)))
+        except InputError as e:  # it names the exported copies, a temporary folder the user never sees
+            raise InputError(e.message if e.path is None else f"{e.path.name}: {e.message}", truth) from None
         for item in built.iterdir():
             shutil.move(str(item), tmp / item.name)
-        shutil.copytree(truth / "gt", tmp / "gt")
+        shutil.copytree(truth / "gt", tmp / "gt", copy_function=shutil.copyfile)
         rec = read_model(tmp / "sparse" / "0")
         est, gt = reconstruction_poses(rec), true_poses(truth)
         M = similarity_to_true(est, gt)

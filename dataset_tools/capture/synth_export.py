@@ -50,12 +50,12 @@ def export_raw_captures(
             if is_test_name(p.name):
                 raw = p.name.removeprefix(TEST_PREFIX)
                 (tmp / "without_objects").mkdir(exist_ok=True)
-                shutil.copy2(p, tmp / "without_objects" / raw)
+                shutil.copyfile(p, tmp / "without_objects" / raw)
                 if unseen_masks:
-                    shutil.copy2(scene_dir / "unseen_mask" / f"{p.stem}.png", _mkdir(tmp / "unseen_masks") / f"{Path(raw).stem}.png")
+                    shutil.copyfile(scene_dir / "unseen_mask" / f"{p.stem}.png", _mkdir(tmp / "unseen_masks") / f"{Path(raw).stem}.png")
             else:
                 (tmp / "with_objects").mkdir(exist_ok=True)
-                shutil.copy2(p, tmp / "with_objects" / p.name)
+                shutil.copyfile(p, tmp / "with_objects" / p.name)
                 if object_masks:
                     inst = read_mask(scene_dir / "gt" / "instance" / f"{p.stem}.png")  # object ids
                     write_mask(tmp / "object_masks" / f"{p.stem}.png", np.isin(inst, targets))

@@ -8,7 +8,6 @@ image, named like it or like the original photo).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import numpy as np
 
@@ -19,15 +18,16 @@ from dataset_tools.capture.unseen import (
     load_object_masks,
     write_unseen_masks,
 )
+from inpaint360gs.cli.common import check_apart, check_writable, existing_dir, nonneg_int
 from inpaint360gs.core.errors import InputError
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", type=Path, help="scene folder built by `build` (images/, sparse/0)")
+    p.add_argument("scene", type=existing_dir, help="scene folder built by `build` (images/, sparse/0)")
     src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--object-masks", type=Path, help="derive from these training-view object masks")
-    src.add_argument("--import", dest="import_dir", type=Path, help="validate and copy these unseen masks")
-    p.add_argument("--mask-dilate", type=int, default=UnseenConfig.mask_dilate_px,
+    src.add_argument("--object-masks", type=existing_dir, help="derive from these training-view object masks")
+    src.add_argument("--import", dest="import_dir", type=existing_dir, help="validate and copy these unseen masks")
+    p.add_argument("--mask-dilate", type=nonneg_int, default=UnseenConfig.mask_dilate_px,
                    help=f"derive: grow object masks by this many pixels ({UnseenConfig.mask_dilate_px})")
     p.add_argument("--depth-test", action="store_true",
                    help="derive: also count surfaces behind a training view's sparse depth as hidden")
@@ -35,14 +35,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    target = args.scene / "unseen_mask"  # checked before any work: written last, atomically
+    check_writable(target, folder=True)
+    if target.is_dir() and any(target.iterdir()) and not args.overwrite:
+        raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", target)
+    check_apart({"SCENE/unseen_mask": target}, {"--object-masks": args.object_masks, "--import": args.import_dir})
+    if not (args.scene / "images").is_dir():
+        raise InputError("missing images/ folder", args.scene / "images")
     if args.import_dir is not None:
         masks, ignored = import_unseen_masks(args.scene, args.import_dir)
         for name in ignored:
             print(f"  ignored (no matching test_ image): {args.import_dir / name}")
         how = f"imported from {args.import_dir}"
     else:
-        if args.mask_dilate < 0:
-            raise InputError("must be >= 0", "--mask-dilate")
         cfg = UnseenConfig(mask_dilate_px=args.mask_dilate, depth_test=args.depth_test)
         masks = derive_unseen_masks(args.scene, load_object_masks(args.scene, args.object_masks), cfg)
         how = f"derived from {args.object_masks} and sparse/0"

@@ -13,11 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from dataset_tools.capture.captures import read_image_size
+from dataset_tools.capture.captures import decode_image, refuse_duplicates
 from dataset_tools.capture.layout import scaled_size
 from dataset_tools.capture.leaks import leaked_point_ids
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.layout import LLFFHOLD, assign_splits, is_image_name
+from inpaint360gs.core.layout import LLFFHOLD, MASK_SUFFIXES, assign_splits, is_image_name
 from inpaint360gs.io.colmap import PINHOLE_MODELS, read_model
 from inpaint360gs.io.images import find_mask, read_mask
 
@@ -62,13 +62,18 @@ def _few(items, n: int = 3) -> str:
 
 
 def _check_masks(report: ValidationReport, name: str, folder: Path, stems: dict[str, tuple[int, int]],
-                 required: bool) -> None:
+                 required: bool, views: set[str], kind: str) -> None:
     """Each image stem needs a mask ``folder/<stem>.png`` (or another mask suffix) of the given (w, h);
-    ``required`` turns missing into FAIL."""
+    ``required`` turns missing into FAIL. A mask whose stem is none of ``views`` (the stems of the
+    images it may belong to, ``kind`` says which) FAILs: a mask of a view that does not exist (or of
+    a training view, for unseen masks) is a naming mistake that would otherwise go unnoticed."""
     if not folder.is_dir():
         report.add(name, "fail" if required else "pass",
                    f"{folder.name}/ missing" if required else f"{folder.name}/ absent (optional)")
         return
+    stray = sorted(p.name for p in folder.iterdir()
+                   if p.is_file() and not p.name.startswith(".") and (is_image_name(p.name) or p.suffix in MASK_SUFFIXES)
+                   and p.stem not in views)
     missing, wrong, nonbinary = [], [], []
     for stem, (w, h) in stems.items():
         path = find_mask(folder, [f"{stem}.png"])
@@ -89,7 +94,9 @@ def _check_masks(report: ValidationReport, name: str, folder: Path, stems: dict[
         problems.append(f"{len(missing)} missing: {_few(missing)}")
     if wrong:
         problems.append(f"{len(wrong)} wrong: {_few(wrong)}")
-    if missing and not required and not wrong:
+    if stray:
+        problems.append(f"{len(stray)} for no {kind}image: {_few(stray)}")
+    if missing and not required and not wrong and not stray:
         report.add(name, "warn", "; ".join(problems))
     elif problems:
         report.add(name, "fail", "; ".join(problems))
@@ -155,10 +162,12 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
 
     sizes: dict[str, tuple[int, int]] = {}
     wrong_size, unreadable = [], []
+    digests: list[tuple[Path, str, bool]] = []
     for f in files:
         try:
             if decode_images:
-                w, h = read_image_size(img_dir / f)
+                (w, h), digest = decode_image(img_dir / f)
+                digests.append((Path(f), digest, split[f] == "test"))
             else:
                 from PIL import Image
 
@@ -178,6 +187,12 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
                         f"size mismatch: {_few(wrong_size)}" if wrong_size else "") if x))
     else:
         report.add("image files", "pass", f"{len(sizes)} decode, sizes match their camera")
+    if decode_images:
+        try:
+            refuse_duplicates(digests)
+            report.add("distinct images", "pass", f"no two of the {len(digests)} decoded images are the same picture")
+        except InputError as e:
+            report.add("distinct images", "fail", str(e))
 
     # --- downscaled copies
     for d in sorted(scene.glob("images_*")):
@@ -206,10 +221,11 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
     # --- masks
     _check_masks(report, "unseen masks", scene / "unseen_mask",
                  {Path(f).stem: sizes[Path(f).stem] for f in test_files if Path(f).stem in sizes},
-                 required=require_unseen_masks)
+                 required=require_unseen_masks, views={Path(f).stem for f in test_files}, kind="test_ ")
     if (scene / "object_mask").is_dir():
         _check_masks(report, "object masks", scene / "object_mask",
-                     {Path(f).stem: sizes[Path(f).stem] for f in other if Path(f).stem in sizes}, required=False)
+                     {Path(f).stem: sizes[Path(f).stem] for f in other if Path(f).stem in sizes}, required=False,
+                     views={Path(f).stem for f in files}, kind="")
 
     # --- point leaks (docs/architecture.md, "Scene format": no point that only a test view sees)
     if rec.num_points3D() == 0:

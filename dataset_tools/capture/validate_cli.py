@@ -1,4 +1,9 @@
-"""``inpaint360gs-dataset validate SCENE``: pass/fail report on a scene folder; exit code 0 = valid, 1 = not."""
+"""``inpaint360gs-dataset validate SCENE``: pass/fail report on a scene folder.
+
+The report goes to stdout (and to ``--json``); exit code 0 = valid, 2 = not valid, with one line on
+stderr naming the failed checks (the shared exit codes, docs/architecture.md, "Reliability": 1 stays
+"internal error", so a script can tell a bad scene from a crash).
+"""
 
 from __future__ import annotations
 
@@ -7,18 +12,41 @@ import json
 from pathlib import Path
 
 from dataset_tools.capture.validate import validate_scene
+from inpaint360gs.cli.common import existing_dir, output_file
+from inpaint360gs.core import layout
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import write_text
+
+# what a --json report inside the scene folder must not overwrite
+_SCENE_FILES = {layout.SCENE_JSON, "build_report.json", "import_report.json"}
+_SCENE_DIRS = {layout.IMAGES_DIR, "sparse", layout.UNSEEN_MASK_DIR, layout.OBJECT_MASK_DIR, layout.GT_DIR}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("scene", type=Path, help="scene folder (Inpaint360GS layout)")
+    p.add_argument("scene", type=existing_dir, help="scene folder (Inpaint360GS layout)")
     p.add_argument("--no-unseen-masks", action="store_true", help="unseen_mask/ is optional (e.g. before unseen-masks ran)")
-    p.add_argument("--json", type=Path, default=None, help="also write the report as JSON here")
+    p.add_argument("--json", type=output_file, default=None, help="also write the report as JSON here")
+
+
+def _check_json_target(scene: Path, target: Path) -> None:
+    """The report may go inside the scene folder, but not over one of its files."""
+    try:
+        rel = target.resolve().relative_to(scene.resolve())
+    except ValueError:
+        return
+    top = rel.parts[0] if rel.parts else ""
+    if str(rel) in _SCENE_FILES or top in _SCENE_DIRS or top.startswith(f"{layout.IMAGES_DIR}_"):
+        raise InputError(f"would overwrite part of the scene being validated ({rel})", "--json")
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.json is not None:
+        _check_json_target(args.scene, args.json)
     report = validate_scene(args.scene, require_unseen_masks=not args.no_unseen_masks)
     print(report.format())
     if args.json is not None:
         write_text(args.json, json.dumps(report.to_dict(), indent=2) + "\n")
-    return 0 if report.ok else 1
+    if not report.ok:
+        failed = "; ".join(f"{c.name}: {c.detail}" for c in report.failed())
+        raise InputError(f"not a valid scene ({len(report.failed())} check(s) failed): {failed}", args.scene)
+    return 0

@@ -10,16 +10,19 @@ import argparse
 import time
 from pathlib import Path
 
+from inpaint360gs.cli.common import nonneg_int, number, output_dir
 from inpaint360gs.core.errors import InputError
+
+image_side = number(int, lo=16, hi=8192)  # pixels (argument type)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("out", nargs="?", type=Path, help="output folder; scenes go to OUT/<name>/")
+    p.add_argument("out", nargs="?", type=output_dir, help="output folder; scenes go to OUT/<name>/")
     p.add_argument("--scenes", nargs="+", default=["all"], metavar="NAME", help="scene names, or 'all' (default)")
     p.add_argument("--reduced", action="store_true", help="CI size: 128x96, 32 object-inclusive + 8 object-free captures")
-    p.add_argument("--width", type=int, default=None, help="image width (with --height; default 256, or 128 with --reduced)")
-    p.add_argument("--height", type=int, default=None, help="image height (with --width; default 192, or 96 with --reduced)")
-    p.add_argument("--seed", type=int, default=0, help="texture noise and camera jitter seed (default 0)")
+    p.add_argument("--width", type=image_side, default=None, help="image width, 16..8192 (with --height; default 256, or 128 with --reduced)")
+    p.add_argument("--height", type=image_side, default=None, help="image height, 16..8192 (with --width; default 192, or 96 with --reduced)")
+    p.add_argument("--seed", type=nonneg_int, default=0, help="texture noise and camera jitter seed (default 0)")
     p.add_argument("--overwrite", action="store_true", help="replace existing scene folders")
     p.add_argument("--list", action="store_true", help="print the scene catalogue and exit")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -54,14 +57,12 @@ def run(args: argparse.Namespace) -> int:
     if args.out is None:
         raise InputError("OUT: output folder required")
     names = resolve_scenes(args.scenes)
-    if args.seed < 0:
-        raise InputError(f"--seed must be >= 0, got {args.seed}")
     build_scene(names[0], reduced=args.reduced, width=args.width, height=args.height, seed=args.seed)  # validates size
-    if args.out.exists() and not args.out.is_dir():
-        raise InputError("exists and is not a folder", args.out)
     for n in names:
         target = args.out / n
-        if target.exists() and not args.overwrite and (not target.is_dir() or any(target.iterdir())):
+        if target.exists() and not target.is_dir():
+            raise InputError("exists and is not a folder", target)
+        if target.exists() and not args.overwrite and any(target.iterdir()):
             raise InputError("scene folder exists and is not empty (pass --overwrite to replace it)", target)
     for n in names:
         t0 = time.perf_counter()

@@ -84,17 +84,27 @@ def load_scene(scene_dir: str | Path) -> SynthScene:
     for p in (sj, cj):
         if not p.is_file():
             raise InputError("missing (not a synthetic scene folder?)", p)
+    bad = (KeyError, TypeError, ValueError, AttributeError, UnicodeDecodeError)  # JSONDecodeError is a ValueError
     try:
         meta = json.loads(sj.read_text())
         prov = meta["provenance"]
-        spec = scene_spec(meta["name"])
         seed, reduced = int(prov["seed"]), bool(prov["reduced"])
+        name = meta["name"]
+        if not isinstance(name, str):
+            raise TypeError(f"name is a {type(name).__name__}, not a string")
+    except bad as e:
+        raise InputError(f"malformed synthetic scene metadata ({type(e).__name__}: {e})", sj) from None
+    try:
+        spec = scene_spec(name)
+    except InputError as e:
+        raise InputError(e.message, sj) from None
+    try:
         cams = json.loads(cj.read_text())
         K = (float(cams["fx"]), float(cams["fy"]), float(cams["cx"]), float(cams["cy"]))
         views = [View.at(c["name"], c["R"], c["t"], K, int(cams["width"]), int(cams["height"]), bool(c["object_free"]))
                  for c in cams["images"]]
-    except (KeyError, TypeError, ValueError, json.JSONDecodeError) as e:
-        raise InputError(f"malformed synthetic scene metadata ({type(e).__name__}: {e})", scene_dir) from None
+    except bad as e:
+        raise InputError(f"malformed synthetic camera metadata ({type(e).__name__}: {e})", cj) from None
     n_points = REDUCED_POINTS if reduced else spec.n_points
     return SynthScene(spec, seed, int(cams["width"]), int(cams["height"]), reduced, views, n_points)
 

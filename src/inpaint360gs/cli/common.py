@@ -80,7 +80,9 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
         if name == wanted:  # import only the module that runs
             importlib.import_module(module).add_arguments(p)
     try:
-        args = parser.parse_args(argv)
+        args, extra = parser.parse_known_args(argv)
+        if extra:  # reported by the stage's parser, so that the line names the stage
+            sub.choices[args.stage].error(f"unrecognized arguments: {' '.join(extra)}")
     except SystemExit as e:  # --help (0) or a usage error (2, already printed on one line)
         return int(e.code or 0)
     where = f"{prog} {args.stage}"
@@ -131,15 +133,17 @@ def _number(kind: type, text: str):
     return v
 
 
-def number(kind: type = float, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False) -> Callable[[str], float | int]:
-    """Argument type: a finite ``kind`` (int or float) within [lo, hi] (``lo_open``: lo excluded)."""
+def number(
+    kind: type = float, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False, hi_open: bool = False
+) -> Callable[[str], float | int]:
+    """Argument type: a finite ``kind`` (int or float) within [lo, hi] (``lo_open`` / ``hi_open``: that end excluded)."""
 
     def parse(text: str):
         v = _number(kind, text)
         if lo is not None and (v < lo or (lo_open and v == lo)):
             raise argparse.ArgumentTypeError(f"must be {'>' if lo_open else '>='} {lo:g}, got {text}")
-        if hi is not None and v > hi:
-            raise argparse.ArgumentTypeError(f"must be <= {hi:g}, got {text}")
+        if hi is not None and (v > hi or (hi_open and v == hi)):
+            raise argparse.ArgumentTypeError(f"must be {'<' if hi_open else '<='} {hi:g}, got {text}")
         return v
 
     return parse
@@ -201,6 +205,25 @@ def _writable(folder: bool) -> Callable[[str], Path]:
 
 output_dir = _writable(folder=True)  # argument type: a folder to create or replace (checked before any work)
 output_file = _writable(folder=False)  # argument type: a file to create or replace
+
+
+def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None], *, replaced: bool = True) -> None:
+    """Raise :class:`InputError` when writing an output would destroy an input or another output.
+
+    ``outputs`` and ``inputs`` map an argument's name to its path (None: not given). An output may
+    not be an input, nor (when the stage ``replaced`` its output folder as a whole, as the atomic
+    folder writers do) a folder that holds an input; two outputs may not be the same path.
+    """
+    outs = [(k, Path(v).resolve()) for k, v in outputs.items() if v is not None]
+    ins = [(k, Path(v).resolve()) for k, v in inputs.items() if v is not None]
+    for i, (name, out) in enumerate(outs):
+        for other, path in ins:
+            if out == path or (replaced and out in path.parents):
+                what = "is" if out == path else "holds"
+                raise InputError(f"output {name} {what} the input {other} ({path}); choose another output", outputs[name])
+        for other, path in outs[:i]:
+            if out == path:
+                raise InputError(f"{other} and {name} are the same path; one output would overwrite the other", outputs[name])
 
 
 # --- threads -----------------------------------------------------------------------------------------

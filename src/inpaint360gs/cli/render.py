@@ -9,7 +9,17 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
+from inpaint360gs.cli.common import (
+    add_backend_argument,
+    add_threads_argument,
+    check_apart,
+    existing_dir,
+    existing_file,
+    nonneg_int,
+    output_dir,
+    positive_int,
+    set_threads,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -23,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sh-degree", type=nonneg_int, default=None, help="SH degree to use (default: all the model holds)")
     parser.add_argument("--white-background", action="store_true")
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     add_threads_argument(parser)
 
 
@@ -31,17 +42,23 @@ def run(args: argparse.Namespace) -> int:
 
     import torch
 
+    from inpaint360gs.core.errors import InputError
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.render.views import render_views
 
+    check_apart({"OUT": args.out}, {"MODEL": args.model, "SCENE": args.scene})  # --overwrite replaces OUT as a whole
     set_threads(args.threads)
     model = read_ply(args.model)
+    if args.sh_degree is not None and args.sh_degree > model.sh_degree:
+        raise InputError(f"{args.sh_degree} is above the SH degree {model.sh_degree} that {args.model} holds", "--sh-degree")
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False, unregistered="warn")
     views = scene.views if args.split == "all" else scene.split(args.split)
+    if not views:
+        raise InputError(f"the scene has no {args.split} views (llffhold={args.llffhold}); nothing to render", args.scene)
     bg = torch.ones(3) if args.white_background else torch.zeros(3)
     summary = render_views(model, scene, views, args.out, sh_degree=args.sh_degree, background=bg, backend=args.backend, overwrite=args.overwrite,
-                           meta={"model": str(args.model), "split": args.split})
+                           progress=not args.no_progress, meta={"model": str(args.model), "split": args.split})
     if views and summary["empty_views"] == len(views):
         warnings.warn(f"{args.model}: every rendered pixel is background in all {len(views)} view(s); is this model in this scene's frame, with sensible scales and opacities?")
     print(f"rendered {len(views)} {args.split} view(s) of {scene.name} to {args.out}")

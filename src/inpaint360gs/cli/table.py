@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import output_file
+from inpaint360gs.cli.common import check_apart, output_file
 
 # table kind -> (title, {metrics.json key: column title}, markdown float format)
 TABLES: dict[str, tuple[str, dict[str, str], str]] = {
@@ -34,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from inpaint360gs.report.tables import load_metrics, table_with_average, write_tables
 
+    check_apart({"--csv": args.csv, "--md": args.md}, {f"METRICS[{i}]": path for i, path in enumerate(args.metrics, 1)})
     title, columns, floatfmt = TABLES[args.kind]
     df = table_with_average(load_metrics(args.metrics), columns)
     write_tables(df, args.csv, args.md, title, floatfmt)

@@ -7,6 +7,7 @@ import argparse
 from inpaint360gs.cli.common import (
     add_backend_argument,
     add_threads_argument,
+    check_apart,
     existing_dir,
     nonneg_int,
     output_dir,
@@ -84,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.gs.trainer import train
     from inpaint360gs.io.scene import load_scene
 
+    check_apart({"OUT": args.out}, {"SCENE": args.scene}, replaced=False)  # a run never replaces OUT as a whole
     set_threads(args.threads)
     cfg = config_from_args(args)
     cfg.validate()

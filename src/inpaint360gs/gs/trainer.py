@@ -42,8 +42,9 @@ from inpaint360gs.io.atomic import atomic_path, write_text
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
 
-# every file a run writes into its folder
-RUN_FILES = (CHECKPOINT_NAME, "point_cloud.ply", "metrics.json", "train_log.csv", "config.yaml")
+# every file a run writes into its folder; the last two only when it finishes
+RUN_FILES = (CHECKPOINT_NAME, "train_log.csv", "config.yaml", "point_cloud.ply", "metrics.json")
+FINISHED_FILES = RUN_FILES[-2:]
 
 LOG_FIELDS = [
     "step", "loss", "l1", "ssim", "psnr", "num_gaussians", "sh_degree", "means_lr",
@@ -207,12 +208,14 @@ class Trainer:
 
         ``resume`` with a checkpoint: continue it; it must come from the same scene content and
         settings, else an error (with ``overwrite`` too: start afresh, what a workflow wants).
-        ``resume`` without a checkpoint: start afresh, unless a previous run's outputs are there
-        (an error: resuming never silently replaces a run). No ``resume``: refuse a previous run
-        unless ``overwrite``, which deletes it.
+        ``resume`` without a checkpoint: start afresh, unless a finished run's outputs are there
+        (an error: resuming never silently replaces a run); a config and log alone are what a run
+        killed (SIGKILL) before its first checkpoint leaves, with nothing to resume: replaced. No
+        ``resume``: refuse a previous run unless ``overwrite``, which deletes it.
         """
         ckpt = self.out / CHECKPOINT_NAME
         previous = [self.out / n for n in RUN_FILES if (self.out / n).is_file()]
+        finished = [p for p in previous if p.name in FINISHED_FILES]
         if resume and ckpt.is_file():
             data = load_checkpoint(ckpt)
             mismatch = self._identity_mismatch(data.get("identity", {}))
@@ -220,13 +223,13 @@ class Trainer:
                 return data
             if not overwrite:
                 raise InputError(mismatch, ckpt)
-        elif resume and previous and not overwrite:
+        elif resume and finished and not overwrite:
             raise InputError(
                 f"--resume: no {CHECKPOINT_NAME} to continue from, but the folder holds a previous run's "
-                f"{previous[0].name}; pass --overwrite to replace that run, or choose a new folder",
+                f"{finished[0].name}; pass --overwrite to replace that run, or choose a new folder",
                 self.out,
             )
-        elif previous and not overwrite:
+        elif previous and not (resume or overwrite):
             raise InputError("output folder holds a previous run; pass --resume to continue it, --overwrite to replace it, or choose a new folder", self.out)
         for p in previous:
             p.unlink()

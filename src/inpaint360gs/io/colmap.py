@@ -95,9 +95,17 @@ def image_camera(rec, image, where: str | Path) -> Camera:
     """The :class:`Camera` (full resolution) of a registered ``pycolmap.Image`` of ``rec``."""
     cam = rec.cameras[image.camera_id]
     fx, fy, cx, cy = pinhole_intrinsics(cam, where)
+    if not (min(fx, fy) > 0 and np.isfinite([fx, fy, cx, cy]).all() and cam.width > 0 and cam.height > 0):
+        raise InputError(
+            f"camera {cam.camera_id} of image {image.name} has invalid intrinsics "
+            f"({cam.width}x{cam.height}, fx={fx:g}, fy={fy:g}, cx={cx:g}, cy={cy:g}); focal lengths must be finite and > 0",
+            where,
+        )
     import torch
 
     pose = np.asarray(image.cam_from_world().matrix(), dtype=np.float64)
+    if not np.isfinite(pose).all():
+        raise InputError(f"image {image.name} has a non-finite pose", Path(where).with_name("images" + Path(where).suffix))
     return Camera(
         R=torch.from_numpy(pose[:, :3]).float(), t=torch.from_numpy(pose[:, 3]).float(),
         fx=fx, fy=fy, cx=cx, cy=cy, width=int(cam.width), height=int(cam.height), name=image.name,

@@ -27,6 +27,8 @@ def read_image(path: str | Path) -> np.ndarray:
     if not path.is_file():
         raise InputError("image file not found", path)
     data = path.read_bytes()
+    if not data:
+        raise InputError("empty file (0 bytes), not an image", path)
     # libjpeg decodes a truncated JPEG to a grey-filled image with only a warning: check the EOI marker
     # (entropy-coded data never holds FF D9, so a complete file has an EOI after its last SOS FF DA)
     if data[:2] == b"\xff\xd8" and data.rfind(b"\xff\xd9") < data.rfind(b"\xff\xda"):

@@ -196,6 +196,7 @@ def load_scene(
         raise InputError("missing images/ folder", images_dir)
     sparse = root / layout.SPARSE_DIR
     rec = read_model(sparse)
+    ext = ".bin" if (sparse / "cameras.bin").is_file() else ".txt"  # which files read_model read
 
     scaled_dir = root / layout.scaled_images_dir(resize)
     use_scaled = resize > 1 and scaled_dir.is_dir()
@@ -204,7 +205,7 @@ def load_scene(
     for image_id, im in sorted(rec.images.items(), key=lambda kv: kv[1].name):  # deterministic order
         if not im.has_pose:
             continue
-        full = image_camera(rec, im, sparse / "cameras.bin")
+        full = image_camera(rec, im, sparse / f"cameras{ext}")
         src = images_dir / im.name
         if not src.is_file():
             raise InputError(f"image {im.name} is registered in sparse/0 but missing on disk", src)
@@ -245,6 +246,10 @@ def load_scene(
     pts = [rec.points3D[i] for i in sorted(rec.points3D)]  # by point id: a deterministic order
     xyz = np.array([p.xyz for p in pts], dtype=np.float32).reshape(-1, 3)
     rgb = np.array([p.color for p in pts], dtype=np.float32).reshape(-1, 3) / 255.0
+    bad = ~np.isfinite(xyz).all(axis=1)
+    if bad.any():
+        first = sorted(rec.points3D)[int(np.flatnonzero(bad)[0])]
+        raise InputError(f"{int(bad.sum())} sparse point(s) have non-finite coordinates (first: point {first})", sparse / f"points3D{ext}")
 
     info: dict = {}
     info_path = root / layout.SCENE_JSON

@@ -81,7 +81,9 @@ def table_with_average(rows: list[dict], columns: dict[str, str], index: str = "
             raise InputError(f"{index} {r[index]!r} appears twice (also in {names[r[index]]})", where)
         names[r[index]] = where
         for k in columns:
-            v = r.get(k)
+            if k not in r:
+                raise InputError(f"field {k!r} missing (every table column needs it in every file)", where)
+            v = r[k]
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise InputError(f"field {k!r} must be a finite number, got {v!r}", where)
     df = pd.DataFrame([{index: r[index], **{title: r[k] for k, title in columns.items()}} for r in rows])
