@@ -17,6 +17,9 @@ STAGES: dict[str, tuple[str, str]] = {
     "train": ("inpaint360gs.cli.train", "train 3D Gaussian Splatting on a scene folder"),
     "render": ("inpaint360gs.cli.render", "render a trained model at a scene's cameras"),
     "associate": ("inpaint360gs.cli.associate", "link per-view 2D segments into view-consistent object masks (Key Object Management)"),
+    "remove": ("inpaint360gs.cli.remove", "select objects by click or id and remove them from the distilled field"),
+    "inpaint": ("inpaint360gs.cli.inpaint", "virtual views, unseen masks, conditional RGB-D 2D inpainting and 3D inpainting"),
+    "run": ("inpaint360gs.cli.run", "the whole method on one scene folder (train -> segment -> associate -> distill -> remove -> inpaint)"),
     "table": ("inpaint360gs.cli.table", "collect per-scene metrics.json files into CSV/Markdown tables"),
 }
 

@@ -41,10 +41,10 @@ from inpaint360gs.render.api import render
 class RefineConfig:
     """3D inpainting (Eq. 6); defaults are the paper's (supp. B)."""
 
-    iterations: int = 2000
-    lambda_dssim: float = 0.2  # λ1
-    lambda_lpips: float = 0.005  # λ2
     variant: str = "paper"  # "paper" | "code": the authors' public code (0.8 / 0.0005 / 5000, L1 over the whole image)
+    iterations: int | None = None  # None: the variant's (2000 paper, 5000 code)
+    lambda_dssim: float | None = None  # λ1; None: the variant's (0.2 paper, 0.8 code)
+    lambda_lpips: float | None = None  # λ2; None: the variant's (0.005 paper, 0.0005 code)
     supervision: str = "hybrid"  # "hybrid" (Eq. 6) | "mask": ablation e)
     lpips_net: str = "vgg"
     lpips_margin: int = 8  # pixels around the mask's bounding box for the LPIPS crop
@@ -56,9 +56,13 @@ class RefineConfig:
             raise InputError(f"unknown 3D inpainting variant {self.variant!r} (paper, code)", "--refine-variant")
         if self.supervision not in ("hybrid", "mask"):
             raise InputError(f"unknown supervision {self.supervision!r} (hybrid, mask)", "--supervision")
-        if self.variant == "code":
-            return replace(self, iterations=5000 if self.iterations == 2000 else self.iterations, lambda_dssim=0.8, lambda_lpips=0.0005)
-        return self
+        paper = self.variant == "paper"
+        return replace(
+            self,
+            iterations=(2000 if paper else 5000) if self.iterations is None else self.iterations,
+            lambda_dssim=(0.2 if paper else 0.8) if self.lambda_dssim is None else self.lambda_dssim,
+            lambda_lpips=(0.005 if paper else 0.0005) if self.lambda_lpips is None else self.lambda_lpips,
+        )
 
 
 def _bbox(mask: torch.Tensor, margin: int) -> tuple[slice, slice]:

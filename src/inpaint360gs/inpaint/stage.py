@@ -36,7 +36,7 @@ from inpaint360gs.io.images import write_image, write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.render.api import render
-from inpaint360gs.views.unseen import TrainingVisibility, UnseenConfig, occluders, unseen_mask
+from inpaint360gs.views.unseen import TrainingVisibility, UnseenConfig, clean_mask, footprint, occluders, unseen_mask
 from inpaint360gs.views.virtual import VirtualViewsConfig, cameras_to_json, choose_trajectory
 
 
@@ -45,8 +45,9 @@ class InpaintConfig:
     """The inpainting stage; each switch off is one ablation of paper Tab. 3."""
 
     views: str = "virtual"  # "virtual" | "training": ablation c)
+    masks: str = "unseen"  # "unseen": geometric NBS masks; "footprint": the removed objects' whole footprint (baseline ii)
     condition: bool = True  # recursive conditioning; False: ablation d)
-    depth_init: bool = True  # depth-guided initialisation; False: ablation b) (naive)
+    init: str = "depth"  # "depth": depth-guided initialisation; "naive": ablation b); "none": no new Gaussians (baseline ii)
     rgb_inpainter: str = DEFAULT_RGB  # 2D inpainters (inpaint.inpainters registry; measured defaults there)
     depth_inpainter: str = DEFAULT_DEPTH
     lama_onnx: str | None = None  # LaMa checkpoint (ONNX) when an inpainter is "lama"
@@ -60,7 +61,7 @@ class InpaintConfig:
 
 def _per_gaussian_ids(field_: IdentityField) -> np.ndarray:
     probs = field_.gaussian_probs()
-    return np.asarray(field_.class_ids)[probs.argmax(dim=1).numpy()]
+    return np.asarray(field_.object_ids)[probs.argmax(dim=1).numpy()]
 
 
 def inpaint_scene(
@@ -76,7 +77,7 @@ def inpaint_scene(
     cfg = cfg or InpaintConfig()
     t = {}
     t0 = time.perf_counter()
-    original = field_.model.map(lambda x: x.detach())
+    original = field_.gaussians.map(lambda x: x.detach())
     if not bool(removed_mask.any()):
         raise InputError("nothing was removed: no Gaussian is marked in the removal")
     train_cams = [v.camera for v in scene.train_views]
@@ -109,9 +110,14 @@ def inpaint_scene(
     edited = base.subset(~base_removed)
     t["occluders_s"] = time.perf_counter() - t0
 
-    # 3. unseen masks
+    # 3. masks of the region to fill
     t0 = time.perf_counter()
-    masks = [unseen_mask(base, base_removed, edited, c, visibility, cfg.unseen, cfg.backend)[0] for c in cameras]
+    if cfg.masks == "unseen":
+        masks = [unseen_mask(base, base_removed, edited, c, visibility, cfg.unseen, cfg.backend)[0] for c in cameras]
+    elif cfg.masks == "footprint":  # the whole rendered footprint, dilated (what per-view 2D pipelines inpaint)
+        masks = [clean_mask(footprint(base, base_removed, c, cfg.unseen.footprint_share, cfg.backend), cfg.unseen.min_component, cfg.unseen.dilate) for c in cameras]
+    else:
+        raise InputError(f"unknown mask kind {cfg.masks!r} (unseen, footprint)", "--masks")
     if not any(m.any() for m in masks):
         raise InputError("the unseen masks are empty in every view: nothing to inpaint (the revealed surface was seen by the training views)")
     t["unseen_masks_s"] = time.perf_counter() - t0
@@ -126,11 +132,15 @@ def inpaint_scene(
 
     # 5. initialisation
     t0 = time.perf_counter()
-    if cfg.depth_init:
+    if cfg.init == "depth":
         new = depth_guided_init(views, sh_degree=edited.sh_degree)
-    else:
+    elif cfg.init == "naive":
         box = original.means[removed_mask].detach().numpy()
         new = naive_init(views, box.min(0), box.max(0), max(1, len(depth_guided_init(views, sh_degree=0))), seed=cfg.refine.seed, sh_degree=edited.sh_degree)
+    elif cfg.init == "none":
+        new = edited.subset(torch.zeros(len(edited), dtype=torch.bool))
+    else:
+        raise InputError(f"unknown initialisation {cfg.init!r} (depth, naive, none)", "--init")
     t["init_s"] = time.perf_counter() - t0
 
     # 6. 3D inpainting, occluders back
@@ -206,3 +216,33 @@ def write_inpainting(
         if before:
             write_image(tmp / "grid.png", _grid(before, after))
         (tmp / "inpaint.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
+
+
+def read_removal(removed_dir: str | Path, n: int) -> tuple[torch.Tensor, list[int]]:
+    """The removal stage's (removed mask over the distilled model's ``n`` Gaussians, object ids)."""
+    removed_dir = Path(removed_dir)
+    info_path, index_path = removed_dir / "removal.json", removed_dir / "removed_index.npy"
+    for p in (info_path, index_path):
+        if not p.is_file():
+            raise InputError("not a removal stage output (missing file)", p)
+    try:
+        info = json.loads(info_path.read_text())
+        index = np.load(index_path)
+    except (ValueError, OSError) as e:
+        raise InputError(f"unreadable removal output ({type(e).__name__})", removed_dir) from None
+    if index.ndim != 1 or (index.size and (index.min() < 0 or index.max() >= n)):
+        raise InputError(f"removed indices do not fit a model of {n} Gaussians: removal made from another model?", index_path)
+    mask = torch.zeros(n, dtype=torch.bool)
+    mask[torch.from_numpy(index.astype(np.int64))] = True
+    return mask, [int(i) for i in info.get("objects", [])]
+
+
+def inpaint_from_removal(field_: IdentityField, removed_dir: str | Path, scene: Scene, out: str | Path, cfg: InpaintConfig | None = None, *, overwrite: bool = False, progress: bool = False) -> dict:
+    """The stage as ``inpaint360gs inpaint`` runs it: read the removal, inpaint, write ``out``."""
+    cfg = cfg or InpaintConfig()
+    t0 = time.perf_counter()
+    mask, ids = read_removal(removed_dir, len(field_.gaussians))
+    final, record, views = inpaint_scene(field_, mask, ids, scene, cfg, progress=progress)
+    record["seconds"]["total_s"] = round(time.perf_counter() - t0, 2)
+    write_inpainting(final, field_.gaussians, record, views, scene, out, backend=cfg.backend, overwrite=overwrite)
+    return record

@@ -139,16 +139,16 @@ def inside_hull(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
 def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalConfig | None = None) -> Removal:
     """Remove the objects ``object_ids`` from the field's Gaussians (see the module docstring)."""
     cfg = cfg or RemovalConfig()
-    known = set(field_.class_ids) - {0}
+    known = set(field_.object_ids) - {0}
     for oid in object_ids:
         if oid not in known:
             raise InputError(f"unknown object id {oid} (the field knows {sorted(known)})", "--id")
     if not object_ids:
         raise InputError("nothing selected: give at least one --click or --id")
     probs = field_.gaussian_probs()  # (N, Q)
-    col = {oid: field_.class_ids.index(oid) for oid in object_ids}
-    means = field_.model.means.detach().cpu().double().numpy()
-    others = [i for i, oid in enumerate(field_.class_ids) if oid != 0 and oid not in col]
+    col = {oid: field_.object_ids.index(oid) for oid in object_ids}
+    means = field_.gaussians.means.detach().cpu().double().numpy()
+    others = [i for i, oid in enumerate(field_.object_ids) if oid != 0 and oid not in col]
     protected = (probs[:, others] > 0.5).any(dim=1).numpy() if (cfg.protect_others and others) else np.zeros(len(means), bool)
     remove = np.zeros(len(means), dtype=bool)
     counts = {}
@@ -163,7 +163,7 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
     if not remove.any():
         raise InputError(f"no Gaussian has probability > {cfg.threshold} for object(s) {object_ids}: nothing to remove")
     mask = torch.from_numpy(remove)
-    return Removal(field_.model.subset(~mask), field_.model.subset(mask), mask, list(object_ids), counts)
+    return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts)
 
 
 @torch.no_grad()
@@ -200,7 +200,7 @@ def removal_stage(
     targets = list(dict.fromkeys(targets))  # keep order, drop repeats
     res = remove_objects(field_, targets, cfg)
     views = scene.train_views
-    masks = fill_masks(field_.model, res.removed_mask, views, cfg.mask_share, backend)
+    masks = fill_masks(field_.gaussians, res.removed_mask, views, cfg.mask_share, backend)
     stack = np.stack([masks[v.name] for v in views])
     info = {
         **(meta or {}),

@@ -1,0 +1,51 @@
+"""``inpaint360gs remove SCENE DISTILL OUT --click VIEW:X,Y | --id N``: select objects by a click on
+a view (resolved through the rendered id map) or by id, and remove them from the distilled field
+(paper Sec. 3.4; thin shell over :func:`inpaint360gs.remove.removal.removal_stage`)."""
+
+from __future__ import annotations
+
+import argparse
+
+from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, existing_dir, fraction, nonneg_int, output_dir, positive_int, set_threads
+
+
+def add_click_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--click", action="append", default=[], metavar="VIEW:X,Y", help="a pixel (column X, row Y) inside the object in a training view; repeat for several objects")
+    parser.add_argument("--id", action="append", type=positive_int, default=[], help="an object id read off the rendered id map; repeatable")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from inpaint360gs.remove.removal import RemovalConfig
+
+    d = RemovalConfig()
+    parser.add_argument("scene", type=existing_dir, help="scene folder")
+    parser.add_argument("distill", type=existing_dir, help="output folder of `inpaint360gs distill` (point_cloud.ply + classifier.json)")
+    parser.add_argument("out", type=output_dir, help="output folder: point_cloud.ply, removed.ply, masks/, removal.json")
+    add_click_arguments(parser)
+    parser.add_argument("--threshold", type=fraction, default=d.threshold, help=f"remove Gaussians whose probability of the object exceeds this (default {d.threshold})")
+    parser.add_argument("--no-hull", action="store_true", help="do not also remove what lies inside the convex hull of the selected Gaussians")
+    parser.add_argument("--resize", type=positive_int, default=1)
+    parser.add_argument("--llffhold", type=nonneg_int, default=8)
+    parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
+    add_backend_argument(parser)
+    add_threads_argument(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from inpaint360gs.distill.field import IdentityField
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.remove.removal import Click, RemovalConfig, removal_stage
+
+    set_threads(args.threads)
+    clicks = [Click.parse(c) for c in args.click]
+    if not clicks and not args.id:
+        from inpaint360gs.core.errors import InputError
+
+        raise InputError("nothing selected: give --click VIEW:X,Y or --id N")
+    cfg = RemovalConfig(threshold=args.threshold, hull=not args.no_hull)
+    scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
+    field = IdentityField.load(args.distill)
+    info = removal_stage(field, scene, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,
+                         meta={"scene": str(scene.root), "distill": str(args.distill)})  # fmt: skip
+    print(f"{scene.name}: removed object(s) {info['objects']} ({info['removed_gaussians']} Gaussians); AMCR {info['amcr_percent']:.2f}% -> {args.out}")
+    return 0

@@ -1,0 +1,62 @@
+"""``inpaint360gs run SCENE OUT [--click VIEW:X,Y ...] [--model PLY] [--until STAGE]``: the whole method
+on one scene folder for people without Snakemake (paper Alg. 1; thin shell over
+:class:`inpaint360gs.pipeline.run.Runner`). One sub-folder per stage under OUT; a stage whose inputs
+and settings did not change since the last run is skipped. Clicks default to ``scene.json``'s."""
+
+from __future__ import annotations
+
+import argparse
+
+from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from inpaint360gs.cli.inpaint import add_inpaint_arguments
+    from inpaint360gs.cli.remove import add_click_arguments
+    from inpaint360gs.pipeline.run import STAGES
+    from inpaint360gs.segment.base import DEFAULT_SEGMENTER, segmenter_names
+
+    parser.add_argument("scene", type=existing_dir, help="scene folder (images/, sparse/0, scene.json, ...)")
+    parser.add_argument("out", type=output_dir, help="output folder: 3dgs/ segment/ associate/ distill/ removed/ inpainted/ run.json")
+    add_click_arguments(parser)
+    parser.add_argument("--model", type=existing_file, default=None, help="a trained 3DGS PLY of this scene: skip training")
+    parser.add_argument("--until", default=STAGES[-1], choices=STAGES, help="stop after this stage (default: the last)")
+    parser.add_argument("--iterations", type=positive_int, default=3000, help="3DGS steps (default 3000 with the schedule scaled: the CPU budget; the original is 30000)")
+    parser.add_argument("--max-gaussians", type=nonneg_int, default=120_000, help="3DGS cap (default 120000; 0: none)")
+    parser.add_argument("--segmenter", default=DEFAULT_SEGMENTER, choices=segmenter_names(), help=f"2D masks (default {DEFAULT_SEGMENTER}; oracle reads gt/ of synthetic scenes)")
+    parser.add_argument("--association", default="kom", choices=["kom", "tracker"], help="Key Object Management (default) or 2D tracking (ablation a)")
+    parser.add_argument("--distill-iterations", type=positive_int, default=2000)
+    add_inpaint_arguments(parser)
+    parser.add_argument("--seed", type=nonneg_int, default=0)
+    parser.add_argument("--resize", type=positive_int, default=1)
+    parser.add_argument("--no-progress", action="store_true")
+    add_backend_argument(parser)
+    add_threads_argument(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from inpaint360gs.cli.inpaint import inpaint_config
+    from inpaint360gs.distill.config import DistillConfig
+    from inpaint360gs.gs.config import ORIGINAL_ITERATIONS, DensifyConfig, TrainConfig
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.pipeline.run import RunConfig, Runner
+    from inpaint360gs.remove.removal import Click
+    from inpaint360gs.segment.associate import AssociationConfig
+
+    set_threads(args.threads)
+    scene = load_scene(args.scene, resize=args.resize, load_masks=False)
+    train = TrainConfig(
+        iterations=args.iterations, seed=args.seed, backend=args.backend, schedule_scale=args.iterations / ORIGINAL_ITERATIONS,
+        densify=DensifyConfig(max_gaussians=args.max_gaussians),
+    )  # fmt: skip
+    cfg = RunConfig(
+        train=train, segmenter=args.segmenter, association=AssociationConfig(method=args.association).resolved(),
+        distill=DistillConfig(iterations=args.distill_iterations, seed=args.seed, backend=args.backend),
+        inpaint=inpaint_config(args, args.seed, args.backend), seed=args.seed, backend=args.backend,
+    )  # fmt: skip
+    clicks = [Click.parse(c) for c in args.click]
+    runner = Runner(scene, args.out, cfg, model=args.model, clicks=clicks, ids=args.id, progress=not args.no_progress)
+    for stage, what in runner.run(args.until):
+        print(f"{stage:10s} {what}")
+    print(f"{scene.name}: done up to {args.until} -> {args.out}")
+    return 0

@@ -1,0 +1,194 @@
+"""``inpaint360gs run``: the whole method on one scene folder, one sub-folder per stage
+(``core.layout.RunLayout``; paper Alg. 1): train → segment → associate → distill → remove → inpaint.
+
+Each stage is skipped when it is up to date: ``OUT/run.json`` records, per stage, a signature of
+what determines its output (the signatures of the stages it reads, the scene's content hash, a
+given model's hash, the stage's settings); a stage whose signature is unchanged and whose output is
+there is not run again, and a changed stage reruns every stage after it. Stages write their
+folders atomically, so an interrupted run resumes at the stage it was in (3DGS training resumes
+from its checkpoint).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.layout import RunLayout
+from inpaint360gs.gs.config import TrainConfig
+from inpaint360gs.inpaint.stage import InpaintConfig
+from inpaint360gs.io.atomic import write_text
+from inpaint360gs.io.scene import Scene
+from inpaint360gs.remove.removal import Click, RemovalConfig
+from inpaint360gs.segment.associate import AssociationConfig
+
+STAGES = ("train", "segment", "associate", "distill", "remove", "inpaint")
+
+
+@dataclass
+class RunConfig:
+    """Every setting of a run; each stage's part is that stage's own config."""
+
+    train: TrainConfig = field(default_factory=TrainConfig)
+    segmenter: str = "geometric"
+    segmenter_options: dict = field(default_factory=dict)
+    association: AssociationConfig = field(default_factory=AssociationConfig)
+    distill: object = None  # DistillConfig (default when None)
+    removal: RemovalConfig = field(default_factory=RemovalConfig)
+    inpaint: InpaintConfig = field(default_factory=InpaintConfig)
+    seed: int = 0
+    backend: str = "auto"
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _signature(*parts) -> str:
+    return hashlib.sha256(json.dumps(parts, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _settings(obj) -> object:
+    return dataclasses.asdict(obj) if dataclasses.is_dataclass(obj) else obj
+
+
+def scene_clicks(scene: Scene) -> list[Click]:
+    """The clicks ``scene.json`` names (``clicks``: view, x, y), as a user would give them."""
+    clicks = scene.info.get("clicks", [])
+    try:
+        return [Click(str(c["view"]), int(c["x"]), int(c["y"])) for c in clicks]
+    except (KeyError, TypeError, ValueError):
+        raise InputError("clicks must be a list of {view, x, y}", scene.root / "scene.json") from None
+
+
+class Runner:
+    """One run of the method on ``scene`` into ``out`` (see the module docstring)."""
+
+    def __init__(self, scene: Scene, out: str | Path, cfg: RunConfig, *, model: str | Path | None = None, clicks: list[Click] | None = None, ids: list[int] | None = None, progress: bool = True):
+        self.scene = scene
+        self.layout = RunLayout(Path(out))
+        self.cfg = cfg
+        self.model_path = Path(model) if model is not None else None
+        if self.model_path is not None and not self.model_path.is_file():
+            raise InputError("model file not found", self.model_path)
+        self.ids = list(ids or [])
+        self.clicks = list(clicks) if clicks else ([] if self.ids else scene_clicks(scene))
+        if not self.clicks and not self.ids:
+            raise InputError("no object to remove: give --click VIEW:X,Y or --id N (scene.json names no clicks)", scene.root)
+        self.progress = progress
+        self.record_path = self.layout.root / "run.json"
+        self.record = self._read_record()
+        self.fingerprint = scene.fingerprint()
+
+    def _read_record(self) -> dict:
+        if not self.record_path.is_file():
+            return {}
+        try:
+            data = json.loads(self.record_path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            return {}  # an unreadable record: everything reruns
+        return data if isinstance(data, dict) else {}
+
+    def _save(self) -> None:
+        write_text(self.record_path, json.dumps(self.record, indent=1) + "\n")
+
+    @property
+    def model_file(self) -> Path:
+        return self.model_path if self.model_path is not None else self.layout.model
+
+    # --- signatures: what determines each stage's output ------------------------------------------
+    def signatures(self) -> dict[str, str]:
+        c = self.cfg
+        sig = {}
+        model_id = ("given", _sha256(self.model_path)) if self.model_path is not None else ("trained", _settings(c.train))
+        sig["train"] = _signature("train", self.fingerprint, model_id)
+        sig["segment"] = _signature("segment", sig["train"], c.segmenter, c.segmenter_options, c.seed)
+        sig["associate"] = _signature("associate", sig["segment"], _settings(c.association))
+        sig["distill"] = _signature("distill", sig["associate"], _settings(c.distill))
+        sig["remove"] = _signature("remove", sig["distill"], [str(k) for k in self.clicks], self.ids, _settings(c.removal))
+        sig["inpaint"] = _signature("inpaint", sig["remove"], _settings(c.inpaint))
+        return sig
+
+    def _outputs(self, stage: str) -> Path:
+        lay = self.layout
+        return {
+            "train": self.model_file, "segment": lay.segment / "segment.json", "associate": lay.associate / "objects.json",
+            "distill": lay.distill / "classifier.json", "remove": lay.removed / "removal.json", "inpaint": lay.inpainted / "inpaint.json",
+        }[stage]  # fmt: skip
+
+    def up_to_date(self, stage: str, sig: str) -> bool:
+        return self.record.get(stage) == sig and self._outputs(stage).is_file()
+
+    # --- the stages -------------------------------------------------------------------------------
+    def run(self, until: str = "inpaint") -> list[tuple[str, str]]:
+        """Run the stages up to ``until``; returns (stage, "ran" | "up to date") pairs."""
+        if until not in STAGES:
+            raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", "--until")
+        sigs = self.signatures()
+        done = []
+        for stage in STAGES[: STAGES.index(until) + 1]:
+            if stage == "train" and self.model_path is not None:
+                done.append((stage, "given"))
+                continue
+            if self.up_to_date(stage, sigs[stage]):
+                done.append((stage, "up to date"))
+                continue
+            self.record.pop(stage, None)
+            getattr(self, f"_{stage}")()
+            self.record[stage] = sigs[stage]
+            self._save()
+            done.append((stage, "ran"))
+        return done
+
+    def _train(self) -> None:
+        from inpaint360gs.gs.trainer import train
+
+        train(self.scene, self.cfg.train, self.layout.gs, resume=True, overwrite=True, progress=self.progress)
+
+    def _model(self):
+        from inpaint360gs.io.ply import read_ply
+
+        return read_ply(self.model_file)
+
+    def _segment(self) -> None:
+        from inpaint360gs.segment.base import get_segmenter
+        from inpaint360gs.segment.stage import segment_scene
+
+        seg = get_segmenter(self.cfg.segmenter, **self.cfg.segmenter_options)
+        segment_scene(self.scene, self._model(), seg, self.layout.segment, model_path=self.model_file, overwrite=True, progress=self.progress)
+
+    def _associate(self) -> None:
+        from inpaint360gs.segment.associate import associate_stage
+
+        associate_stage(self.scene, self._model(), self.layout.segment, self.layout.associate, self.cfg.association, overwrite=True,
+                        meta={"scene": str(self.scene.root), "model": str(self.model_file)})  # fmt: skip
+
+    def _distill(self) -> None:
+        from inpaint360gs.distill.run import distill
+
+        lay = self.layout
+        distill(self.scene, self.model_file, lay.associate / "object_mask", lay.associate / "objects.json", self.cfg.distill, lay.distill, overwrite=True, progress=self.progress)
+
+    def _field(self):
+        from inpaint360gs.distill.field import IdentityField
+
+        return IdentityField.load(self.layout.distill)
+
+    def _remove(self) -> None:
+        from inpaint360gs.remove.removal import removal_stage
+
+        removal_stage(self._field(), self.scene, self.layout.removed, clicks=self.clicks, ids=self.ids, cfg=self.cfg.removal,
+                      backend=self.cfg.backend, overwrite=True, meta={"scene": str(self.scene.root)})  # fmt: skip
+
+    def _inpaint(self) -> None:
+        from inpaint360gs.inpaint.stage import inpaint_from_removal
+
+        inpaint_from_removal(self._field(), self.layout.removed, self.scene, self.layout.inpainted, self.cfg.inpaint, overwrite=True, progress=self.progress)
