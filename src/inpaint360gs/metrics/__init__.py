@@ -1,20 +1,50 @@
-"""Evaluation metrics (paper Sec. 4 "Metrics", Tab. 1): PSNR, SSIM and LPIPS (``lpips`` = VGG as in
-the paper's evaluation code, ``lpips_alex``).
+"""Evaluation metrics (paper Sec. 4 "Metrics", Tab. 1; AMCR: supp. Eq. 1).
+
+Three mask conventions are named apart (see :mod:`.masked`): full image (``psnr``, ``ssim``,
+``lpips`` = VGG as in the paper's evaluation code, ``lpips_alex``), ``masked_*`` (the paper's
+code: both images multiplied by the unseen mask) and ``roi_*`` (mask pixels only).
 """
 
-from inpaint360gs.metrics.image import psnr, ssim
+from inpaint360gs.metrics.image import psnr, ssim, ssim_index_map
 from inpaint360gs.metrics.lpips import (
     get_lpips_net,
     lpips,
     lpips_alex,
     lpips_map,
 )
+from inpaint360gs.metrics.masked import (
+    CONVENTIONS,
+    amcr,
+    apply_mask,
+    masked_lpips,
+    masked_lpips_alex,
+    masked_psnr,
+    masked_ssim,
+    roi_lpips,
+    roi_lpips_alex,
+    roi_psnr,
+    roi_ssim,
+    roi_undefined_reason,
+)
 
 __all__ = [
+    "CONVENTIONS",
+    "amcr",
+    "apply_mask",
     "get_lpips_net",
     "lpips",
     "lpips_alex",
     "lpips_map",
+    "masked_lpips",
+    "masked_lpips_alex",
+    "masked_psnr",
+    "masked_ssim",
     "psnr",
+    "roi_lpips",
+    "roi_lpips_alex",
+    "roi_psnr",
+    "roi_ssim",
+    "roi_undefined_reason",
     "ssim",
+    "ssim_index_map",
 ]
