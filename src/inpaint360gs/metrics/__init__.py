@@ -4,6 +4,7 @@ Three mask conventions are named apart (see :mod:`.masked`): full image (``psnr`
 ``lpips`` = VGG as in the paper's evaluation code, ``lpips_alex``), ``masked_*`` (the paper's
 code: both images multiplied by the unseen mask) and ``roi_*`` (mask pixels only). FID (Inception
 features, :mod:`.inception`) and its VGG16 substitutes share the distances of :mod:`.distribution`.
+:func:`evaluate_renders` scores a folder of renders against a scene's test views.
 """
 
 from inpaint360gs.metrics.distribution import (
@@ -12,14 +13,10 @@ from inpaint360gs.metrics.distribution import (
     frechet_distance_features,
     kernel_inception_distance,
 )
+from inpaint360gs.metrics.evaluate import evaluate_renders
 from inpaint360gs.metrics.image import psnr, ssim, ssim_index_map
 from inpaint360gs.metrics.inception import FIDInceptionV3, inception_features, load_fid_inception
-from inpaint360gs.metrics.lpips import (
-    get_lpips_net,
-    lpips,
-    lpips_alex,
-    lpips_map,
-)
+from inpaint360gs.metrics.lpips import get_lpips_net, lpips, lpips_alex, lpips_map
 from inpaint360gs.metrics.masked import (
     CONVENTIONS,
     amcr,
@@ -40,6 +37,7 @@ __all__ = [
     "FIDInceptionV3",
     "amcr",
     "apply_mask",
+    "evaluate_renders",
     "feature_statistics",
     "frechet_distance",
     "frechet_distance_features",

@@ -39,7 +39,10 @@ INFINITE_PSNR_REASON = "+inf: render equals ground truth on every evaluated pixe
 
 CONVENTIONS = {
     "full": "psnr, ssim, lpips (VGG), lpips_alex: whole frame",
-    "masked": "masked_*: render and ground truth both multiplied by the binary unseen mask (>127), then the full-frame metric (paper's evaluation code)",
+    "masked": (
+        "masked_*: render and ground truth both multiplied by the binary unseen mask (>127), "
+        "then the full-frame metric (paper's evaluation code)"
+    ),
     "roi": "roi_*: PSNR over unseen-mask pixels only; SSIM map and LPIPS spatial map averaged over unseen-mask pixels",
 }
 
