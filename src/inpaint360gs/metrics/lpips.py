@@ -11,7 +11,15 @@ relu5_3) are L2-normalised over channels (eps 1e-10), their squared difference g
 
 Weights come from :mod:`inpaint360gs.metrics.weights` (no download, no torchvision). Networks are
 built once per (net, device, dtype), frozen and in eval mode; the functions stay differentiable
-with respect to the images (the 3D inpainting loss uses LPIPS).
+with respect to the images (the 3D inpainting loss uses LPIPS). When only one image of a pair
+requires a gradient (a render against fixed ground truth), the other goes through the network
+without autograd, so the backward pass covers one image.
+
+Cost: VGG16 is 15.0 GMAC per 256x192 image (AlexNet 0.64), so one float32 forward+backward of a
+pair is ~90 GFLOP, ~0.45 s at best on two cores of the project's CPU machine (its convolutions
+measured ~100 GFLOP/s per core). bfloat16 inputs run a bfloat16 copy of the network, about twice
+as fast on CPUs with AVX512-BF16, with values ~1e-4 off (``benchmarks/bench_metrics.py``): an
+option for the loss, not for reported metrics.
 """
 
 from __future__ import annotations
@@ -30,7 +38,13 @@ from inpaint360gs.metrics.weights import flatten_arrays, load_numpy_pickle, lpip
 Net = Literal["vgg", "alex"]
 
 # (out_channels, kernel, stride, padding) per convolution; "M" = max pool (kernel, stride)
-_ALEX = [(64, 11, 4, 2), "tap", ("M", 3, 2), (192, 5, 1, 2), "tap", ("M", 3, 2), (384, 3, 1, 1), "tap", (256, 3, 1, 1), "tap", (256, 3, 1, 1), "tap"]
+_ALEX = [
+    (64, 11, 4, 2), "tap", ("M", 3, 2),
+    (192, 5, 1, 2), "tap", ("M", 3, 2),
+    (384, 3, 1, 1), "tap",
+    (256, 3, 1, 1), "tap",
+    (256, 3, 1, 1), "tap",
+]  # fmt: skip
 _VGG16 = [
     (64, 3, 1, 1), (64, 3, 1, 1), "tap", ("M", 2, 2),
     (128, 3, 1, 1), (128, 3, 1, 1), "tap", ("M", 2, 2),
@@ -42,7 +56,6 @@ _VGG16 = [
 _LAYOUT = {"alex": (_ALEX, "AlexNet_0"), "vgg": (_VGG16, "VGG16_0")}
 _SHIFT = (-0.030, -0.088, -0.188)
 _SCALE = (0.458, 0.448, 0.450)
-NUM_LAYERS = 5
 
 
 class LPIPSNet(nn.Module):
