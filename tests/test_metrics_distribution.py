@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import torch
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.metrics import (
     FIDInceptionV3,
     feature_statistics,

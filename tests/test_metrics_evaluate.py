@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.images import read_image, to_float
 from inpaint360gs.metrics import (
     evaluate_renders,

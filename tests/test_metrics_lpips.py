@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.metrics import get_lpips_net, lpips, lpips_alex, lpips_map
 from inpaint360gs.metrics.lpips import _normalize
 from inpaint360gs.metrics.weights import LPIPS_ENV, load_numpy_pickle, lpips_weights_path

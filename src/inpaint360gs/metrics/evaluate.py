@@ -32,8 +32,9 @@ from pathlib import Path
 
 import torch
 
-from inpaint360gs.errors import InputError
-from inpaint360gs.io.images import IMAGE_SUFFIXES, read_image, to_float
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.layout import IMAGE_SUFFIXES
+from inpaint360gs.io.images import read_image, to_float
 from inpaint360gs.io.scene import Scene, View, load_scene
 from inpaint360gs.metrics.distribution import frechet_distance_features, kernel_inception_distance
 from inpaint360gs.metrics.image import psnr, ssim_index_map

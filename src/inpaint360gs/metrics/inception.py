@@ -22,7 +22,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 FEATURE_DIM = 2048
 NUM_CLASSES = 1008  # the TF graph's classifier (unused for features, present in the weights file)

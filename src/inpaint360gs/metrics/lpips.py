@@ -33,7 +33,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.metrics.weights import flatten_arrays, load_numpy_pickle, lpips_weights_path
 
 Net = Literal["vgg", "alex"]

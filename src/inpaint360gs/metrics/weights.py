@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inpaint360gs.errors import InputError
+from inpaint360gs.core.errors import InputError
 
 LPIPS_ENV = "INPAINT360GS_LPIPS_WEIGHTS"
 INCEPTION_ENV = "INPAINT360GS_INCEPTION_WEIGHTS"

@@ -42,7 +42,7 @@ from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene, View
-from inpaint360gs.metrics.amcr import amcr
+from inpaint360gs.metrics import amcr
 from inpaint360gs.render.api import render
 
 
