@@ -20,6 +20,7 @@ STAGES: dict[str, tuple[str, str]] = {
     "remove": ("inpaint360gs.cli.remove", "select objects by click or id and remove them from the distilled field"),
     "inpaint": ("inpaint360gs.cli.inpaint", "virtual views, unseen masks, conditional RGB-D 2D inpainting and 3D inpainting"),
     "run": ("inpaint360gs.cli.run", "the whole method on one scene folder (train -> segment -> associate -> distill -> remove -> inpaint)"),
+    "evaluate": ("inpaint360gs.cli.evaluate", "score renders of a scene's test_ views: full, masked and ROI metrics, LPIPS, FID or its substitutes"),
     "table": ("inpaint360gs.cli.table", "collect per-scene metrics.json files into CSV/Markdown tables"),
 }
 

@@ -1,0 +1,48 @@
+"""``inpaint360gs evaluate RENDERS SCENE OUT.json``: every metric of the paper (Sec. 4 "Metrics",
+Tab. 1, supp. Eq. 1) for a folder of renders of a scene's test_ views — full image, ``masked_*``
+(the paper's evaluation code) and ``roi_*`` (strict) conventions, LPIPS VGG and AlexNet, FID with
+the Inception weights when configured, and the offline substitutes fd_vgg16 / kid_vgg16 (thin shell
+over :func:`inpaint360gs.metrics.evaluate.evaluate_renders`)."""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from inpaint360gs.cli.common import add_threads_argument, existing_dir, existing_file, output_file
+    from inpaint360gs.metrics.weights import INCEPTION_ENV
+
+    parser.add_argument("renders", type=existing_dir, help="one PNG per test_ view, named like the test image (test_0003.png)")
+    parser.add_argument("scene", type=existing_dir, help="scene folder (its test_ images and unseen_mask/)")
+    parser.add_argument("out", type=output_file, help="metrics JSON to write")
+    parser.add_argument("--nets", default="vgg,alex", help="LPIPS networks, comma-separated (default vgg,alex; lpips = vgg as the paper's code)")
+    parser.add_argument("--inception-weights", type=existing_file, default=None, help=f"pt_inception-2015-12-05 weights for FID (default ${INCEPTION_ENV}; without them fid is null with the reason)")
+    parser.add_argument("--resize", type=int, default=1, help="image downscale factor of the scene")
+    add_threads_argument(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    import json
+
+    from inpaint360gs.cli.common import check_apart, set_threads
+    from inpaint360gs.core.errors import InputError
+    from inpaint360gs.io.atomic import write_text
+    from inpaint360gs.metrics.evaluate import evaluate_renders
+
+    set_threads(args.threads)
+    nets = tuple(n.strip() for n in args.nets.split(",") if n.strip())
+    bad = [n for n in nets if n not in ("vgg", "alex")]
+    if bad or not nets:
+        raise InputError(f"unknown LPIPS network(s) {bad or nets} (vgg, alex)", "--nets")
+    check_apart({"OUT": args.out}, {"RENDERS": args.renders, "SCENE": args.scene}, replaced=False)
+    res = evaluate_renders(args.renders, args.scene, nets=nets, inception_weights=args.inception_weights)
+    write_text(args.out, json.dumps(res, indent=1, allow_nan=False) + "\n")
+    m = res["mean"]
+
+    def f(k):
+        v = m.get(k)
+        return "null" if v is None else f"{v:.4f}"
+
+    print(f"{res.get('scene', args.scene)}: {res['num_views']} views; PSNR {f('psnr')}, masked PSNR {f('masked_psnr')}, ROI PSNR {f('roi_psnr')}, LPIPS {f('lpips')} -> {args.out}")
+    return 0
