@@ -193,11 +193,10 @@ class SamSegmenter(Segmenter):
             outs["image_embeddings"] = outs[names[0]]
         return outs
 
-    def generate(self, rgb8: np.ndarray) -> list[np.ndarray]:
-        """SAM's automatic masks of one (H, W, 3) uint8 image: boolean masks, kept ones only."""
+    def decoder_feed(self, rgb8: np.ndarray) -> dict[str, np.ndarray]:
+        """The decoder's inputs for one (H, W, 3) uint8 image, all but the prompt (encoder run once)."""
         if self._dec is None:
             raise RuntimeError("SamSegmenter.prepare() must run before segment()")
-        cfg = self.config
         h, w = rgb8.shape[:2]
         emb = self._encode(rgb8)
         feed = {i.name: emb[i.name] for i in self._dec.get_inputs() if i.name in emb}
@@ -205,29 +204,40 @@ class SamSegmenter(Segmenter):
         mshape = next(i.shape for i in self._dec.get_inputs() if i.name == "mask_input")
         mshape = [d if isinstance(d, int) and d > 0 else s for d, s in zip(mshape, (1, 1, 4 * eh, 4 * ew))]
         feed.update(mask_input=np.zeros(mshape, np.float32), has_mask_input=np.zeros(1, np.float32), orig_im_size=np.array([h, w], np.float32))
+        return feed
+
+    def point_logits(self, feed: dict[str, np.ndarray], x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
+        """Mask logits (M, H, W) and predicted IoUs (M,) for one positive point (x, y) in original
+        pixels (with SAM's padding point); M = 3 multimask tokens for 4-token decoders."""
+        h, w = (int(v) for v in feed["orig_im_size"])
         nh, nw = resized_size(h, w, self._side)
-        points = point_grid(cfg.points_per_side) * [w, h]
-        masks, ious, stab = [], [], []
-        for x, y in points:
-            feed["point_coords"] = np.array([[[x * nw / w, y * nh / h], [0.0, 0.0]]], np.float32)
-            feed["point_labels"] = np.array([[1.0, -1.0]], np.float32)
-            logits, iou = self._dec.run([self._out_masks, self._out_iou], feed)
-            logits, iou = logits[0], iou[0]
-            if logits.shape[0] == 4:  # all mask tokens: SAM's multimask output is tokens 1..3
-                logits, iou = logits[1:], iou[1:]
+        feed["point_coords"] = np.array([[[x * nw / w, y * nh / h], [0.0, 0.0]]], np.float32)
+        feed["point_labels"] = np.array([[1.0, -1.0]], np.float32)
+        logits, iou = self._dec.run([self._out_masks, self._out_iou], feed)
+        logits, iou = logits[0], iou[0]
+        if logits.shape[0] == 4:  # all mask tokens: SAM's multimask output is tokens 1..3
+            logits, iou = logits[1:], iou[1:]
+        return logits, iou
+
+    def generate(self, rgb8: np.ndarray) -> list[np.ndarray]:
+        """SAM's automatic masks of one (H, W, 3) uint8 image: boolean masks, kept ones only."""
+        cfg = self.config
+        h, w = rgb8.shape[:2]
+        feed = self.decoder_feed(rgb8)
+        masks, ious = [], []
+        for x, y in point_grid(cfg.points_per_side) * [w, h]:
+            logits, iou = self.point_logits(feed, x, y)
             for lg, q in zip(logits, iou):
                 if q <= cfg.pred_iou_thresh:
                     continue
                 hi = (lg > cfg.mask_threshold + cfg.stability_score_offset).sum()
                 lo = (lg > cfg.mask_threshold - cfg.stability_score_offset).sum()
-                s = hi / lo if lo else 0.0
-                if s < cfg.stability_score_thresh:
+                if (hi / lo if lo else 0.0) < cfg.stability_score_thresh:
                     continue
                 m = lg > cfg.mask_threshold
                 if m.any():
                     masks.append(m)
                     ious.append(float(q))
-                    stab.append(float(s))
         if not masks:
             return []
         boxes = np.stack([box_of(m) for m in masks])
