@@ -24,14 +24,6 @@ from inpaint360gs.segment.geometric import GeometricConfig, GeometricSegmenter
 from inpaint360gs.segment.masks import flatten_masks, relabel_by_area, split_components
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _two_threads():
-    old = torch.get_num_threads()
-    torch.set_num_threads(2)
-    yield
-    torch.set_num_threads(old)
-
-
 def _arrays(model):
     return model.means.double().numpy(), model.opacities.numpy(), model.scales.max(1).values.numpy()
 

@@ -113,7 +113,7 @@ class GeometricSegmenter(Segmenter):
         if self._model is None:
             raise RuntimeError("GeometricSegmenter.prepare() must run before segment()")
         with torch.no_grad():
-            out = render(self._model, camera, with_features=True, backend=self.config.backend)
+            out = render(self._model, camera, with_features=True, sh_degree=0, backend=self.config.backend)  # colour unused
         return out.features.numpy(), out.alpha.numpy()
 
     def label_image(self, camera) -> np.ndarray:

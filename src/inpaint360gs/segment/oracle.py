@@ -11,8 +11,9 @@ background) and applies, with a generator seeded by ``seed`` and the view's name
 output):
 
 * **missed small parts**: an object's connected components smaller than ``min_part_px`` vanish;
-* **eroded / dilated edges**: each object's mask grows or shrinks by up to ``edge_px`` pixels
-  (an object never vanishes through erosion: it is left as it was);
+* **eroded / dilated edges**: each object's mask grows or shrinks by up to ``edge_px`` pixels, and
+  by at most ``edge_rel`` × its equivalent radius (√(area/π), at least 1 px), so small objects are not
+  wiped out (an object never vanishes through erosion: it is left as it was);
 * **merges**: with probability ``merge_prob`` per view, two touching objects become one segment;
 * **splits**: with probability ``split_prob`` each object is cut in two along a random line through
   a point near its centre (both sides must keep ``min_part_px``);
@@ -46,7 +47,8 @@ class OracleConfig:
     seed: int = 0
     split_prob: float = 0.15  # per object and view
     merge_prob: float = 0.15  # per view: one pair of touching objects merged
-    edge_px: int = 2  # edges move by up to this many pixels (erosion or dilation)
+    edge_px: int = 2  # edges move by up to this many pixels (erosion or dilation) ...
+    edge_rel: float = 0.15  # ... and by at most this fraction of the object's equivalent radius (>= 1 px)
     min_part_px: int = 0  # components below this vanish; 0 = 2e-4 of the image (>= 4 px)
 
     def validate(self) -> None:
@@ -54,8 +56,8 @@ class OracleConfig:
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
                 raise InputError(f"{name} must be in [0, 1], got {v}", name)
-        if self.edge_px < 0 or self.min_part_px < 0 or self.seed < 0:
-            raise InputError("edge_px, min_part_px and seed must be >= 0")
+        if self.edge_px < 0 or self.min_part_px < 0 or self.seed < 0 or self.edge_rel < 0:
+            raise InputError("edge_px, edge_rel, min_part_px and seed must be >= 0")
 
 
 def _disk(r: int) -> np.ndarray:
@@ -93,7 +95,8 @@ def damage(instance: np.ndarray, cfg: OracleConfig, rng: np.random.Generator) ->
         m = np.isin(cc, keep)  # missed small parts
         if not m.any():
             continue
-        r = int(rng.integers(-cfg.edge_px, cfg.edge_px + 1)) if cfg.edge_px else 0
+        top = min(cfg.edge_px, max(1, round(cfg.edge_rel * np.sqrt(m.sum() / np.pi))))
+        r = int(rng.integers(-top, top + 1)) if cfg.edge_px else 0
         if r > 0:
             m = cv2.dilate(m.astype(np.uint8), _disk(r)).astype(bool)
         elif r < 0:
