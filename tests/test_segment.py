@@ -28,6 +28,13 @@ def _arrays(model):
     return model.means.double().numpy(), model.opacities.numpy(), model.scales.max(1).values.numpy()
 
 
+def _stub_scene(n: int):
+    """What the geometric segmenter reads of a scene: training views with cameras."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(train_views=[SimpleNamespace(camera=c, name=c.name) for c in cameras(n)])
+
+
 def _purity(labels: np.ndarray, owner: np.ndarray, part: int) -> tuple[int, float]:
     """(the cluster holding most of ``part``'s Gaussians, the fraction of them it holds)."""
     lab = labels[owner == part]
@@ -98,14 +105,11 @@ def test_a_single_object_on_a_layer_is_kept_whole():
 def test_per_view_ids_differ_between_views_yet_match_the_objects():
     model, owner = two_blobs()
     seg = GeometricSegmenter()
-
-    class _Scene:  # what prepare() reads of a scene
-        train_views = [type("V", (), {"camera": c, "name": c.name})() for c in cameras()]
-
-    seg.prepare(_Scene, model)
+    scene = _stub_scene(12)
+    seg.prepare(scene, model)
     assert seg.summary()["objects_3d"] == 2
     id_of_blob1 = set()
-    for v in _Scene.train_views:
+    for v in scene.train_views:
         ids = seg.segment(v, None)
         assert ids.dtype == np.uint16
         truth = true_labels(model, owner, v.camera)
@@ -239,3 +243,13 @@ def test_cli_bad_model_files(blob_scene, tmp_path, capsys):
         assert main(["segment", str(root), str(ply), str(tmp_path / "o"), "--no-progress"]) == 2
         err = capsys.readouterr().err.strip()
         assert message in err and len(err.splitlines()) == 1
+
+
+def test_nothing_above_the_ground_warns_and_gives_empty_masks():
+    model, owner = two_blobs()
+    ground_only = model.subset(torch.from_numpy(owner == 0))
+    seg = GeometricSegmenter()
+    scene = _stub_scene(6)
+    with pytest.warns(UserWarning, match="no object found"):
+        seg.prepare(scene, ground_only)
+    assert not seg.segment(scene.train_views[0], None).any()

@@ -31,11 +31,27 @@ def _const(name: str, value, dtype=np.float32):
     return helper.make_node("Constant", [], [name], value=onnx.numpy_helper.from_array(np.asarray(value, dtype=dtype), name))
 
 
-def encoder_model(path):
-    x = helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, S, S])
+def encoder_model(path, *, with_preprocess: bool = False):
+    """(1, 3, S, S) normalised padded image -> pooled embedding; ``with_preprocess``: the input is the
+    resized (H', W', 3) 0-255 image and the graph normalises and pads it (like exports that take raw pixels)."""
     y = helper.make_tensor_value_info("image_embeddings", TensorProto.FLOAT, [1, 3, S // CELL, S // CELL])
     pool = helper.make_node("AveragePool", ["image"], ["image_embeddings"], kernel_shape=[CELL, CELL], strides=[CELL, CELL])
-    onnx.save(helper.make_model(helper.make_graph([pool], "enc", [x], [y]), opset_imports=[helper.make_opsetid("", 17)]), path)
+    if not with_preprocess:
+        x = helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 3, S, S])
+        nodes = [pool]
+    else:
+        x = helper.make_tensor_value_info("input_image", TensorProto.FLOAT, ["h", "w", 3])
+        nodes = [
+            _const("mean", [123.675, 116.28, 103.53]), _const("std", [58.395, 57.12, 57.375]),
+            _const("side", [S, S], np.int64), _const("zeros6", [0, 0, 0, 0, 0, 0], np.int64), _const("axis0", [0], np.int64),
+            helper.make_node("Sub", ["input_image", "mean"], ["c"]), helper.make_node("Div", ["c", "std"], ["n"]),
+            helper.make_node("Transpose", ["n"], ["chw"], perm=[2, 0, 1]), helper.make_node("Unsqueeze", ["chw", "axis0"], ["nchw"]),
+            helper.make_node("Shape", ["input_image"], ["shape"], start=0, end=2), helper.make_node("Sub", ["side", "shape"], ["pad_hw"]),
+            helper.make_node("Concat", ["zeros6", "pad_hw"], ["pads"], axis=0),
+            helper.make_node("Pad", ["nchw", "pads"], ["image"]),
+            pool,
+        ]  # fmt: skip
+    onnx.save(helper.make_model(helper.make_graph(nodes, "enc", [x], [y]), opset_imports=[helper.make_opsetid("", 17)]), path)
 
 
 def decoder_model(path, *, drop_input: str | None = None):
@@ -140,6 +156,17 @@ def test_automatic_masks_are_the_rectangles_and_background(models):
         assert len(vals) == 1 and vals[0] > 0 and np.array_equal(ids == vals[0], m)
     assert ids[expected[2]][0] == 1  # the largest mask (background) is painted first, smaller on top
     assert seg.settings()["encoder_input_side"] == S
+
+
+def test_encoder_with_its_preprocessing_inside(models, tmp_path):
+    """An encoder taking the resized (H', W', 3) 0-255 image (S given by the settings: its input is dynamic)."""
+    _, dec = models
+    encoder_model(tmp_path / "enc_raw.onnx", with_preprocess=True)
+    seg = SamSegmenter(SamConfig(encoder=str(tmp_path / "enc_raw.onnx"), decoder=str(dec), points_per_side=8, image_size=S))
+    seg.prepare(None, None)
+    img, expected = rectangles()
+    ids = seg.segment(_View, torch.from_numpy(img).float() / 255)
+    assert int(ids.max()) == 3 and all(np.array_equal(ids == ids[m][0], m) for m in expected)
 
 
 def test_a_prompt_segments_what_lies_under_it(models):

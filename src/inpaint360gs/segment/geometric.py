@@ -33,7 +33,8 @@ Limits (what it cannot do that SAM can):
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import warnings
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 import torch
@@ -78,8 +79,6 @@ class GeometricSegmenter(Segmenter):
     def __init__(self, config: GeometricConfig | None = None, *, seed: int | None = None, backend: str | None = None):
         cfg = config or GeometricConfig()
         if seed is not None or backend is not None:
-            from dataclasses import replace
-
             cfg = replace(cfg, **{k: v for k, v in (("seed", seed), ("backend", backend)) if v is not None})
         cfg.validate()
         self.config = cfg
@@ -101,6 +100,11 @@ class GeometricSegmenter(Segmenter):
         )  # fmt: skip
         self.clusters = cluster_gaussians(means, opac, max_scale, self.frame, cc)
         k = self.clusters.count
+        if k == 0:
+            warnings.warn(
+                f"no object found standing on the ground plane ({self.clusters.num_seeds} Gaussians above it near the orbit's axis); "
+                "every id image will be empty (try a smaller --tau or --eps larger than the gaps in the model)"
+            )
         feats = torch.zeros(len(g), max(k, 1))
         lab = torch.from_numpy(self.clusters.labels.astype(np.int64))
         on = lab > 0

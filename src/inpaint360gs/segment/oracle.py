@@ -26,7 +26,7 @@ object overlaps a large neighbour rather than vanishing under it.
 from __future__ import annotations
 
 import zlib
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -128,8 +128,6 @@ class OracleSegmenter(Segmenter):
     def __init__(self, config: OracleConfig | None = None, *, seed: int | None = None):
         cfg = config or OracleConfig()
         if seed is not None:
-            from dataclasses import replace
-
             cfg = replace(cfg, seed=seed)
         cfg.validate()
         self.config = cfg

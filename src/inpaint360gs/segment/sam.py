@@ -30,7 +30,7 @@ into one id image, smaller masks on top (:func:`.masks.flatten_masks`).
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -144,8 +144,6 @@ class SamSegmenter(Segmenter):
     def __init__(self, config: SamConfig | None = None, **overrides):
         cfg = config or SamConfig()
         if overrides:
-            from dataclasses import replace
-
             cfg = replace(cfg, **{k: v for k, v in overrides.items() if v is not None})
         cfg.validate()
         self.config = cfg
