@@ -15,6 +15,7 @@ from inpaint360gs.cli.common import run_stages
 # stage name -> (module, one-line help)
 STAGES: dict[str, tuple[str, str]] = {
     "train": ("inpaint360gs.cli.train", "train 3D Gaussian Splatting on a scene folder"),
+    "segment": ("inpaint360gs.cli.segment", "raw 2D masks of every training view (geometric, oracle or SAM segmenter)"),
     "render": ("inpaint360gs.cli.render", "render a trained model at a scene's cameras"),
     "associate": ("inpaint360gs.cli.associate", "link per-view 2D segments into view-consistent object masks (Key Object Management)"),
     "remove": ("inpaint360gs.cli.remove", "select objects by click or id and remove them from the distilled field"),
