@@ -16,6 +16,7 @@ from inpaint360gs.cli.common import run_stages
 STAGES: dict[str, tuple[str, str]] = {
     "train": ("inpaint360gs.cli.train", "train 3D Gaussian Splatting on a scene folder"),
     "render": ("inpaint360gs.cli.render", "render a trained model at a scene's cameras"),
+    "distill": ("inpaint360gs.cli.distill", "distill associated object masks into identity features of a trained model (Sec. 3.3)"),
     "table": ("inpaint360gs.cli.table", "collect per-scene metrics.json files into CSV/Markdown tables"),
 }
 
