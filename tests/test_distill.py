@@ -111,7 +111,7 @@ def test_cached_render_and_gradients_equal_the_rasterizer(blob_scene):
     labels = load_labels(blob_scene["assoc"] / "object_mask", scene.train_views, IDS)
     g = blob_scene["gaussians"]
     cfg = small_cfg(knn_sample=0)
-    d = Distiller(g, labels, cache_views(g, labels, cfg), cfg)
+    d = Distiller(g, labels, cfg)
     target = d.loop.views[3]
     feats = d.loop.params["features"]
 

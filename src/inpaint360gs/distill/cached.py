@@ -20,6 +20,19 @@ from inpaint360gs.render.api import RenderOutput
 from inpaint360gs.render.contributions import Contributions, sparse_render
 
 
+def spatial_order(means: torch.Tensor, bits: int = 10) -> torch.Tensor:
+    """Permutation sorting the Gaussians along a Morton (Z-order) curve of their centres (``bits`` per
+    axis over the bounding box; ties keep index order), so that neighbours in space are near in memory."""
+    m = means.detach().cpu().double()
+    lo, hi = m.min(0).values, m.max(0).values
+    q = ((m - lo) / (hi - lo).clamp_min(1e-12) * (2**bits - 1)).round().long()
+    code = torch.zeros(len(m), dtype=torch.long)
+    for b in range(bits):
+        for axis in range(3):
+            code |= ((q[:, axis] >> b) & 1) << (3 * b + axis)
+    return torch.argsort(code, stable=True).to(means.device)
+
+
 @dataclass
 class FeatureRender(RenderOutput):
     """A cached feature render: ``features`` (H, W, F) and ``alpha`` are the rasterizer's; colour, depth

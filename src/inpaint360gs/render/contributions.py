@@ -175,19 +175,15 @@ def _contributions_numba(s: Splats, n: int, min_weight: float) -> Contributions:
 
     _set_threads()
     pk, offsets, gids, order, tiles_x = prepare(s.means2d, s.conics, s.opacities, s.radii, s.depths, s.width, s.height)
-    workers = numba.get_num_threads()
-    args = (pk, offsets, gids, order, workers, s.width, s.height, tiles_x)
-    counts = NC.tile_counts(*args, np.float32(min_weight))
-    starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    pix, gid, wts = NC.tile_fill(*args, np.float32(min_weight), starts, int(starts[-1]))
-    indptr, cols, vals = NC.to_csr(pix, gid, wts, s.width * s.height)
+    args = (pk, offsets, gids, order, numba.get_num_threads(), s.width, s.height, tiles_x)
+    starts = np.concatenate([[0], np.cumsum(NC.tile_counts(*args))]).astype(np.int64)
+    pix, gid, wts = NC.tile_fill(*args, starts, int(starts[-1]))
     dropped = None
-    if min_weight > 0:  # the dropped weight per pixel: all weights minus the kept ones
-        full = NC.tile_counts(*args, np.float32(0.0))
-        fs = np.concatenate([[0], np.cumsum(full)]).astype(np.int64)
-        fpix, _, fw = NC.tile_fill(*args, np.float32(0.0), fs, int(fs[-1]))
-        tot = np.bincount(fpix, weights=fw, minlength=s.width * s.height) - np.bincount(pix, weights=wts, minlength=s.width * s.height)
-        dropped = torch.from_numpy(tot.astype(np.float32).reshape(s.height, s.width))
+    if min_weight > 0:
+        small = wts < np.float32(min_weight)
+        dropped = torch.from_numpy(np.bincount(pix[small], weights=wts[small], minlength=s.width * s.height).astype(np.float32).reshape(s.height, s.width))
+        pix, gid, wts = pix[~small], gid[~small], wts[~small]
+    indptr, cols, vals = NC.to_csr(pix, gid, wts, s.width * s.height)
     t = torch.from_numpy
     return Contributions(t(indptr), t(cols), t(vals), s.width, s.height, n, dropped)
 

@@ -28,9 +28,9 @@ _U16 = U(16)
 
 
 @njit(**_OPTS)
-def _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, min_weight, fill, start, pix_out, gid_out, w_out):
-    """Walk tile ``t`` front to back (the forward kernel's loop); count its contributions with
-    w >= ``min_weight`` or, with ``fill``, write them from index ``start``. Returns the count."""
+def _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, fill, start, pix_out, gid_out, w_out):
+    """Walk tile ``t`` front to back (the forward kernel's loop); count its contributions or, with
+    ``fill``, write them from index ``start``. Returns the count."""
     s, e = offsets[t], offsets[t + 1]
     x_base = (t % tiles_x) * TILE
     y_base = (t // tiles_x) * TILE
@@ -60,7 +60,7 @@ def _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, min_weight, fil
             continue
         for p in range(lo, hi):
             w = st[_F_W + p]
-            if w > _ZERO and w >= min_weight:  # w > 0 exactly where the Gaussian was added
+            if w > _ZERO:  # exactly where the Gaussian was added
                 if fill:
                     pix_out[start + n] = (y_base + int(p) // TILE) * width + x_base + int(p) % TILE
                     gid_out[start + n] = g
@@ -70,7 +70,7 @@ def _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, min_weight, fil
 
 
 @njit(parallel=True, **_OPTS)
-def tile_counts(pk, offsets, gids, order, n_workers, width, height, tiles_x, min_weight):
+def tile_counts(pk, offsets, gids, order, n_workers, width, height, tiles_x):
     """Pass 1: contributions per tile (n_tiles,), tiles dealt to workers as in the forward kernel."""
     n_tiles = offsets.shape[0] - 1
     counts = np.zeros(n_tiles, np.int64)
@@ -80,12 +80,12 @@ def tile_counts(pk, offsets, gids, order, n_workers, width, height, tiles_x, min
         st = np.empty(_F_ROWS * NPIX, np.float32)
         for j in range(w, order.shape[0], n_workers):
             t = order[j]
-            counts[t] = _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, min_weight, False, 0, dummy_i, dummy_i, dummy_f)
+            counts[t] = _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, False, 0, dummy_i, dummy_i, dummy_f)
     return counts
 
 
 @njit(parallel=True, **_OPTS)
-def tile_fill(pk, offsets, gids, order, n_workers, width, height, tiles_x, min_weight, starts, nnz):
+def tile_fill(pk, offsets, gids, order, n_workers, width, height, tiles_x, starts, nnz):
     """Pass 2: (pixel (nnz,) int32, Gaussian (nnz,) int32, weight (nnz,) float32), tile t's entries from starts[t]."""
     pix = np.empty(nnz, np.int32)
     gid = np.empty(nnz, np.int32)
@@ -94,7 +94,7 @@ def tile_fill(pk, offsets, gids, order, n_workers, width, height, tiles_x, min_w
         st = np.empty(_F_ROWS * NPIX, np.float32)
         for j in range(w, order.shape[0], n_workers):
             t = order[j]
-            _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, min_weight, True, starts[t], pix, gid, wts)
+            _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, True, starts[t], pix, gid, wts)
     return pix, gid, wts
 
 
