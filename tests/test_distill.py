@@ -39,14 +39,6 @@ W, H = 64, 48
 IDS = (3, 7)  # object ids of the two blobs (not 1, 2: the class -> id mapping is exercised)
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _two_threads():
-    old = torch.get_num_threads()
-    torch.set_num_threads(2)
-    yield
-    torch.set_num_threads(old)
-
-
 def blob_model(seed: int = 0) -> tuple[Gaussians, torch.Tensor]:
     """(Gaussians, object id of each): a floor disc (id 0) and two opaque blobs (ids 3 and 7)."""
     gen = torch.Generator().manual_seed(seed)
