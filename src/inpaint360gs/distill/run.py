@@ -68,16 +68,16 @@ def init_features(n: int, dim: int, generator: torch.Generator) -> torch.Tensor:
     return (torch.rand(n, dim, generator=generator) - 0.5) / SH_C0
 
 
-def cache_views(model: Gaussians, labels: Labels, cfg: DistillConfig) -> dict[str, Contributions]:
-    """W of every training view; InputError when the model does not cover the views (another scene's model)."""
+def cache_views(model: Gaussians, labels: Labels, cfg: DistillConfig, where: str | Path = "model") -> dict[str, Contributions]:
+    """W of every training view; InputError (naming ``where``) when the model does not cover the views (another scene's model)."""
     cache = {v.name: contributions(model, v.camera, backend=cfg.backend, min_weight=cfg.min_weight) for v in labels.views}
     covered = sum(int((c.alpha() >= 0.5).sum()) for c in cache.values())
     total = sum(c.width * c.height for c in cache.values())
     if sum(c.nnz for c in cache.values()) == 0:
-        raise InputError(f"no Gaussian of the model projects into any of the {len(cache)} training views; is the model from this scene?", "model")
+        raise InputError(f"no Gaussian of the model projects into any of the {len(cache)} training views; is the model from this scene?", where)
     if covered < MIN_COVERAGE * total:
         raise InputError(
-            f"the model covers only {100 * covered / total:.2f}% of the training pixels (alpha >= 0.5); is the model from this scene?", "model"
+            f"the model covers only {100 * covered / total:.2f}% of the training pixels (alpha >= 0.5); is the model from this scene?", where
         )
     empty = [name for name, c in cache.items() if c.nnz == 0]
     if empty:
@@ -115,7 +115,7 @@ class Distiller:
     depend on this.
     """
 
-    def __init__(self, model: Gaussians, labels: Labels, cfg: DistillConfig):
+    def __init__(self, model: Gaussians, labels: Labels, cfg: DistillConfig, where: str | Path = "model"):
         self.cfg = cfg
         self.model = model
         self.labels = labels
@@ -123,7 +123,7 @@ class Distiller:
         t0 = time.perf_counter()
         self.order = spatial_order(model.means)
         local = model.subset(self.order)
-        self.cache = cache_views(local, labels, cfg)
+        self.cache = cache_views(local, labels, cfg, where)
         self.timing = {"weights_cache": time.perf_counter() - t0}
         t0 = time.perf_counter()
         gen = torch.Generator().manual_seed(cfg.seed)
@@ -223,7 +223,7 @@ def distill(
     inputs.update(masks_dir=str(masks_dir), masks_sha256=labels.sha256())
     model = model.map(lambda t: t.detach())
 
-    d = Distiller(model, labels, cfg)
+    d = Distiller(model, labels, cfg, inputs.get("model", "model"))
     cache = d.cache
 
     t0 = time.perf_counter()
