@@ -39,8 +39,8 @@ from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.atomic import atomic_dir
-from inpaint360gs.io.images import read_mask, write_labels
-from inpaint360gs.io.scene import Scene, View
+from inpaint360gs.io.images import write_labels
+from inpaint360gs.io.scene import Scene
 
 MAX_OBJECTS = 255  # ids 1..255; 0 is the background (paper supp. B: at most 256 classes)
 
@@ -265,28 +265,6 @@ def associate(segments: dict[str, np.ndarray], scene: Scene, model: Gaussians, c
 # --- the stage --------------------------------------------------------------------------------------
 
 
-def read_segments(segment_dir: str | Path, views: Sequence[View]) -> tuple[dict[str, np.ndarray], dict]:
-    """The segment stage's id images for ``views`` and its ``segment.json``."""
-    segment_dir = Path(segment_dir)
-    info_path = segment_dir / "segment.json"
-    if not info_path.is_file():
-        raise InputError("not a segment stage output (no segment.json)", segment_dir)
-    try:
-        info = json.loads(info_path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError(f"not valid JSON ({e})", info_path) from None
-    segs = {}
-    for v in views:
-        p = segment_dir / f"{v.stem}.png"
-        if not p.is_file():
-            raise InputError(f"no segments for training view {v.name}", p)
-        m = read_mask(p)
-        if m.shape != (v.camera.height, v.camera.width):
-            raise InputError(f"segments are {m.shape[1]}x{m.shape[0]}, view {v.name} is {v.camera.width}x{v.camera.height}", p)
-        segs[v.name] = m
-    return segs, info
-
-
 def write_association(result: Association, scene: Scene, out: str | Path, *, meta: dict, overwrite: bool = False) -> None:
     """``OUT/object_mask/<stem>.png`` per training view and ``OUT/objects.json`` (docs/architecture.md,
     "Stage outputs"), atomically."""
@@ -300,9 +278,15 @@ def write_association(result: Association, scene: Scene, out: str | Path, *, met
 
 def associate_stage(scene: Scene, model: Gaussians, segment_dir: str | Path, out: str | Path, cfg: AssociationConfig | None = None, *, overwrite: bool = False, meta: dict | None = None) -> Association:
     """Read the segment stage's output, associate, write ``out``; returns the association."""
+    from inpaint360gs.segment.stage import SEGMENT_JSON, read_segments
+
     t0 = time.perf_counter()
-    segs, info = read_segments(segment_dir, scene.train_views)
-    result = associate(segs, scene, model, cfg)
-    meta = {**(meta or {}), "segmenter": info.get("segmenter", "unknown"), "seconds": round(time.perf_counter() - t0, 2)}
+    by_stem = read_segments(segment_dir, scene)
+    try:
+        segmenter = json.loads((Path(segment_dir) / SEGMENT_JSON).read_text()).get("segmenter", "unknown")
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise InputError(f"not valid JSON ({e})", Path(segment_dir) / SEGMENT_JSON) from None
+    result = associate({v.name: by_stem[v.stem] for v in scene.train_views}, scene, model, cfg)
+    meta = {**(meta or {}), "segmenter": segmenter, "seconds": round(time.perf_counter() - t0, 2)}
     write_association(result, scene, out, meta=meta, overwrite=overwrite)
     return result
