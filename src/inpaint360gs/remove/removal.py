@@ -8,8 +8,12 @@ directly. A click on the background, outside the image or on an unknown view is 
 Removal of a selected object (the authors' public code; Gaussian Grouping uses the same two steps):
 
 1. every Gaussian whose own identity feature gives the object a probability above ``threshold``
-   (0.7) goes;
-2. so does every Gaussian inside the convex hull (Delaunay) of those Gaussians' centres, after a
+   (0.7) goes — as long as it belongs to the object's body in space: Gaussians no training view
+   ever rendered keep their random initial features, and some of them, anywhere in the scene, pass
+   the threshold by chance. The selected centres are therefore grouped into connected components
+   (centres closer than ``link`` times their median nearest-neighbour spacing are linked), and only
+   components holding at least ``min_part`` of the largest one's Gaussians count as the object;
+2. so does every Gaussian inside the convex hull (Delaunay) of the object's centres, after a
    statistical outlier filter (centres whose mean distance to their k nearest selected neighbours
    is more than ``outlier_std`` standard deviations above the mean) so that a few stray
    Gaussians do not inflate the hull. Gaussians the field confidently assigns to ANOTHER object
@@ -76,6 +80,8 @@ class RemovalConfig:
     hull: bool = True  # also remove what lies inside the convex hull of the selected Gaussians
     outlier_k: int = 10  # statistical outlier filter before the hull: neighbours considered ...
     outlier_std: float = 2.0  # ... and the cut in standard deviations above the mean distance
+    link: float = 4.0  # selected centres closer than this x their median nearest-neighbour spacing are one body
+    min_part: float = 0.1  # components with fewer than this share of the largest one's Gaussians are not the object
     protect_others: bool = True  # keep Gaussians with probability > 0.5 of another (non-background) object
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
 
@@ -122,6 +128,24 @@ def _inlier_points(points: np.ndarray, k: int, n_std: float) -> np.ndarray:
     return points[m <= m.mean() + n_std * m.std()]
 
 
+def object_body(points: np.ndarray, link: float, min_part: float) -> np.ndarray:
+    """Boolean mask of the ``points`` in the object's body: connected components of the graph that
+    links centres closer than ``link`` x the median nearest-neighbour distance, kept when they hold
+    at least ``min_part`` of the largest component's points."""
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    if len(points) < 3:
+        return np.ones(len(points), dtype=bool)
+    tree = cKDTree(points)
+    d, _ = tree.query(points, k=2)
+    radius = link * float(np.median(d[:, 1]))
+    graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
+    _, labels = connected_components(graph, directed=False)
+    sizes = np.bincount(labels)
+    return sizes[labels] >= min_part * sizes.max()
+
+
 def inside_hull(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
     """Boolean mask of ``queries`` inside the convex hull of ``points`` (Delaunay; degenerate sets:
     nothing is inside)."""
@@ -154,6 +178,8 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
     counts = {}
     for oid, c in col.items():
         sel = (probs[:, c] > cfg.threshold).numpy()
+        idx = np.flatnonzero(sel)
+        sel[idx[~object_body(means[idx], cfg.link, cfg.min_part)]] = False
         hull = np.zeros_like(sel)
         if cfg.hull and sel.sum() >= 5:
             pts = _inlier_points(means[sel], cfg.outlier_k, cfg.outlier_std)
