@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import torch
-from segment_scenes import best_iou, cameras, plate_scene, true_labels, two_blobs, write_scene
+from segment_scenes import best_iou, blob, build, cameras, ground, plate_scene, true_labels, two_blobs, write_scene
 
 from inpaint360gs.cli import main
 from inpaint360gs.core.errors import InputError
@@ -77,6 +77,23 @@ def test_clusters_are_the_blobs_and_not_the_ground():
     k2, p2 = _purity(c.labels, owner, 2)
     assert k1 != k2 and p1 > 0.95 and p2 > 0.95
     assert (c.labels[owner == 0] > 0).mean() < 0.01  # the ground stays unlabelled
+
+
+def test_a_sparse_model_widens_the_neighbourhoods():
+    """60 Gaussians per blob (a model trained on small images): fixed neighbourhoods break the blobs
+    into crumbs; widened by the seeds' neighbour distance they are found whole."""
+    rng = np.random.default_rng(0)
+    model, owner = build([ground(rng), blob(rng, (0.55, 0, 0.25), 0.2, (0.9, 0.2, 0.1), n=60), blob(rng, (-0.55, 0.15, 0.25), 0.2, (0.1, 0.3, 0.9), n=60)])
+    means, opac, maxs = _arrays(model)
+    f = scene_frame(cameras(), means, opac)
+    fixed = cluster_gaussians(means, opac, maxs, f, ClusterConfig(density_eps=0.0))
+    assert fixed.count > 2 and fixed.density_scale == 1.0
+    c = cluster_gaussians(means, opac, maxs, f, ClusterConfig())
+    assert c.count == 2 and c.density_scale > 1.5
+    assert _purity(c.labels, owner, 1)[1] == 1.0 and _purity(c.labels, owner, 2)[1] == 1.0
+    dense, _ = two_blobs()
+    means, opac, maxs = _arrays(dense)
+    assert cluster_gaussians(means, opac, maxs, f, ClusterConfig()).density_scale == 1.0  # dense models are left alone
 
 
 def test_support_peeling_splits_a_plate_from_what_stands_on_it():

@@ -12,11 +12,15 @@ Steps, every length a fraction of the orbit radius R (:class:`.frame.SceneFrame`
    stays whole (a cone keeps its base).
 3. **growing**: less opaque or lower Gaussians near the axis join the cluster of their nearest labelled
    Gaussian when it is close.
+
+A sparse model (fewer Gaussians per object, e.g. one trained on 128×96 images) widens all three
+neighbourhoods together so DBSCAN's eps stays above twice the seeds' typical neighbour distance
+(:func:`density_scale`).
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -46,6 +50,8 @@ class ClusterConfig:
     eps: float = 0.03  # DBSCAN neighbourhood
     min_samples: int = 4  # DBSCAN core points
     min_cluster_frac: float = 0.02  # clusters holding less of the seeds are dropped
+    density_eps: float = 2.0  # sparse models: every neighbourhood (eps, upper_eps, grow_radius) grows so that eps is at
+    # least this × the seeds' median distance to their min_samples-th neighbour (0 = off; the 256×192 models never trigger it)
     # support peeling
     layer_bin: float = 0.005  # height bin of the layer search
     layer_min_frac: float = 0.15  # the densest bin ±1 must hold this much of the cluster
@@ -78,6 +84,7 @@ class Clusters:
     support: list[int]  # labels that came from support peeling (plates, trays)
     num_seeds: int
     num_grown: int
+    density_scale: float = 1.0  # factor applied to every neighbourhood (>= 1; > 1 for sparse models)
 
     @property
     def count(self) -> int:
@@ -93,6 +100,17 @@ def _dbscan(x: np.ndarray, eps: float, min_samples: int) -> np.ndarray:
     if len(x) == 0:
         return np.zeros(0, np.int64)
     return DBSCAN(eps=eps, min_samples=min_samples).fit(x).labels_
+
+
+def density_scale(seeds: np.ndarray, cfg: ClusterConfig, R: float) -> float:
+    """How much to widen every neighbourhood for a sparse model: eps must be at least
+    ``density_eps`` × the median distance of a seed to its ``min_samples``-th neighbour (DBSCAN's
+    k-distance), else DBSCAN breaks objects into crumbs. 1 for the dense models of the benchmark's
+    256×192 budget (k-distance ≈ 0.01 R); about 1.5 for the sparser 128×96 CI-size models."""
+    if cfg.density_eps <= 0 or len(seeds) <= cfg.min_samples:
+        return 1.0
+    d, _ = cKDTree(seeds).query(seeds, k=cfg.min_samples + 1)
+    return max(1.0, cfg.density_eps * float(np.median(d[:, -1])) / (cfg.eps * R))
 
 
 def _peel(x: np.ndarray, h: np.ndarray, cfg: ClusterConfig, R: float) -> list[np.ndarray] | None:
@@ -132,6 +150,9 @@ def cluster_gaussians(means: np.ndarray, opacities: np.ndarray, max_scales: np.n
     seeds = np.flatnonzero(seed_mask)
     labels = np.zeros(len(means), np.int32)
     support: list[int] = []
+    scale = density_scale(means[seeds], cfg, R)
+    if scale != 1.0:
+        cfg = replace(cfg, eps=cfg.eps * scale, upper_eps=cfg.upper_eps * scale, grow_radius=cfg.grow_radius * scale)
     lab = _dbscan(means[seeds], cfg.eps * R, cfg.min_samples)
     clusters = [seeds[lab == j] for j in range(lab.max() + 1)] if len(lab) else []
     clusters = sorted((c for c in clusters if len(c) > cfg.min_cluster_frac * len(seeds)), key=lambda c: -len(c))
@@ -160,4 +181,4 @@ def cluster_gaussians(means: np.ndarray, opacities: np.ndarray, max_scales: np.n
             break
         labels[todo[ok]] = labels[have[j[ok]]]
         grown += int(ok.sum())
-    return Clusters(labels=labels, support=support, num_seeds=len(seeds), num_grown=grown)
+    return Clusters(labels=labels, support=support, num_seeds=len(seeds), num_grown=grown, density_scale=scale)

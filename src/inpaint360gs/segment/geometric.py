@@ -17,7 +17,9 @@ while the trained 3DGS already separates what stands on the floor from the floor
    crumbs stay with their object's largest piece), numbered per view by decreasing area, so ids do
    not agree between views and the association stage has real work to do.
 
-Every length is a fraction of R (:class:`GeometricConfig`), so the defaults carry across scene sizes.
+Every length is a fraction of R (:class:`GeometricConfig`), so the defaults carry across scene sizes;
+a sparse model (few Gaussians per object, e.g. trained on 128×96 images) widens the DBSCAN and
+growing neighbourhoods to twice the typical neighbour distance (:func:`.cluster3d.density_scale`).
 
 Limits (what it cannot do that SAM can):
 
@@ -149,4 +151,5 @@ class GeometricSegmenter(Segmenter):
             "gaussians_per_object": c.sizes(),
             "seed_gaussians": c.num_seeds,
             "grown_gaussians": c.num_grown,
+            "neighbourhood_scale": round(c.density_scale, 4),
         }
