@@ -14,25 +14,26 @@ authors' public code instead (λ1 = 0.8, λ2 = 0.0005, 5000 iterations, L1 over 
 (and LPIPS) terms, and only Gaussians inside the masked region (new ones, and those whose centre
 projects into a mask) may move — the naive scheme the paper argues against.
 
-All Gaussian parameters train through the shared optimisation loop (:mod:`inpaint360gs.gs.loop`)
-with the 3DGS learning rates; the means' rate decays over the run.
+The Gaussians around the region to fill train (every parameter, 3DGS learning rates, the means'
+rate decaying over the run) through the shared optimisation loop (:mod:`inpaint360gs.gs.loop`);
+see :func:`refine` for which ones, and why each view is optimised on a crop around its mask.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 import torch
 
+from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.gs.loop import OptimizationLoop, Target, TargetList
 from inpaint360gs.gs.loss import ssim_map
-from inpaint360gs.gs.optim import PARAM_NAMES, learning_rates
+from inpaint360gs.gs.optim import PARAM_NAMES, learning_rates, means_lr
 from inpaint360gs.inpaint.conditioned import InpaintedView
 from inpaint360gs.render.api import render
 
@@ -50,6 +51,8 @@ class RefineConfig:
     # the loss's forward + backward on 2 CPU cores, 10x AlexNet; the evaluation uses VGG like the paper's code.
     lpips_net: str = "alex"
     lpips_margin: int = 8  # pixels around the mask's bounding box for the LPIPS crop
+    crop_margin_px: int = 16  # each view is optimised on its mask's bounding box grown by max(this, half its size)
+    region_margin: float = 0.5  # Gaussians within this x the region's diagonal of it train (see refine)
     seed: int = 0
     backend: str = "auto"
 
@@ -120,41 +123,96 @@ def _rows_in_masks(g: Gaussians, views: Sequence[InpaintedView]) -> torch.Tensor
     return torch.from_numpy(hit)
 
 
-def refine(scene_model: Gaussians, new: Gaussians, views: Sequence[InpaintedView], cfg: RefineConfig | None = None, *, extent: float = 1.0, progress=None) -> tuple[Gaussians, list[dict]]:
-    """Optimise ``scene_model`` + ``new`` on ``views`` with Eq. 6; returns the model and a log."""
+def crop_rect(mask: np.ndarray, margin_px: int, margin_frac: float) -> tuple[int, int, int, int]:
+    """(x0, y0, x1, y1) of the mask's bounding box grown by max(margin_px, margin_frac x its size)."""
+    rows, cols = np.nonzero(mask)
+    h, w = mask.shape
+    y0, y1, x0, x1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+    my = max(margin_px, int(round(margin_frac * (y1 - y0))))
+    mx = max(margin_px, int(round(margin_frac * (x1 - x0))))
+    return max(x0 - mx, 0), max(y0 - my, 0), min(x1 + mx, w), min(y1 + my, h)
+
+
+def crop_camera(cam: Camera, rect: tuple[int, int, int, int]) -> Camera:
+    x0, y0, x1, y1 = rect
+    return replace(cam, cx=cam.cx - x0, cy=cam.cy - y0, width=x1 - x0, height=y1 - y0)
+
+
+def visible_in(g: Gaussians, cam: Camera) -> torch.Tensor:
+    """Indices of the Gaussians whose 3-sigma footprint can reach ``cam``'s image (centre in front)."""
+    from inpaint360gs.views.unseen import project
+
+    u, v, z = project(cam, g.means.detach().cpu().double().numpy())
+    r = 3.0 * g.log_scales.detach().exp().max(dim=1).values.double().numpy() * max(cam.fx, cam.fy) / np.maximum(z, 1e-6)
+    ok = (z > 0.01) & (u + r >= 0) & (u - r < cam.width) & (v + r >= 0) & (v - r < cam.height)
+    return torch.from_numpy(np.flatnonzero(ok))
+
+
+def active_rows(scene_model: Gaussians, region: np.ndarray, margin: float) -> torch.Tensor:
+    """Gaussians whose centre lies in the axis-aligned box of ``region`` (points) grown by ``margin``
+    x its diagonal on every side."""
+    lo, hi = region.min(axis=0), region.max(axis=0)
+    pad = margin * float(np.linalg.norm(hi - lo))
+    m = scene_model.means.detach().cpu().double().numpy()
+    return torch.from_numpy(((m >= lo - pad) & (m <= hi + pad)).all(axis=1))
+
+
+def refine(
+    scene_model: Gaussians,
+    new: Gaussians,
+    views: Sequence[InpaintedView],
+    cfg: RefineConfig | None = None,
+    *,
+    region: np.ndarray,
+    extent: float = 1.0,
+    progress=None,
+) -> tuple[Gaussians, list[dict]]:
+    """Optimise ``new`` and the Gaussians of ``scene_model`` around ``region`` (the removed objects'
+    centres) on ``views`` with Eq. 6; returns the whole model and a log.
+
+    What moves (the "active" Gaussians): the new ones and the scene's Gaussians inside the region's
+    box grown by ``region_margin`` x its diagonal — ablation e): only those whose centre projects
+    into a mask. Everything else is static, so every term of Eq. 6 can be evaluated on each view's
+    crop around its mask (the bounding box grown by half its size): outside it nothing can change.
+    On a CPU this makes a step ~5x cheaper (the static Gaussians are culled to the crop once per view
+    and neither projected for gradients nor stepped by Adam)."""
     cfg = (cfg or RefineConfig()).resolved()
+    views = [v for v in views if v.mask.any()]
     if not views:
-        raise InputError("3D inpainting needs at least one view")
-    if not any(v.mask.any() for v in views):
         raise InputError("every unseen mask is empty: nothing to inpaint")
     degree = scene_model.sh_degree
     if new.sh_degree != degree:
-        pad = torch.zeros(len(new), (degree + 1) ** 2 - 1, 3)
-        new = replace(new, shN=pad)
-    model = Gaussians(**{k: torch.cat([getattr(scene_model, k).detach(), getattr(new, k).detach()], 0) for k in PARAM_NAMES})
-    targets = [
-        Target(v.camera.name, v.camera, {
-            "image": torch.from_numpy(v.color).float(), "mask": torch.from_numpy(v.mask), "valid": torch.from_numpy(v.valid),
-        })
-        for v in views
-    ]  # fmt: skip
+        new = replace(new, shN=torch.zeros(len(new), (degree + 1) ** 2 - 1, 3))
+    scene_model = scene_model.map(lambda t: t.detach())
+    if cfg.supervision == "mask":  # ablation e): only what lies in the masked region moves
+        active = _rows_in_masks(scene_model, views)
+    else:
+        pts = region if not len(new) else np.concatenate([region, new.means.detach().cpu().double().numpy()])
+        active = active_rows(scene_model, pts, cfg.region_margin)
+    static = scene_model.subset(~active)
+    model = Gaussians(**{k: torch.cat([getattr(scene_model.subset(active), k), getattr(new, k).detach()], 0) for k in PARAM_NAMES})
+    targets = []
+    for v in views:
+        x0, y0, x1, y1 = rect = crop_rect(v.mask, cfg.crop_margin_px, 0.5)
+        cam = crop_camera(v.camera, rect)
+        targets.append(Target(v.camera.name, cam, {
+            "image": torch.from_numpy(v.color[y0:y1, x0:x1]).float(), "mask": torch.from_numpy(v.mask[y0:y1, x0:x1]),
+            "valid": torch.from_numpy(v.valid[y0:y1, x0:x1]), "static": visible_in(static, cam),
+        }))  # fmt: skip
     tc = TrainConfig(means_lr_max_steps=cfg.iterations)
     lrs: dict = dict(learning_rates(tc, extent))
-    lr0, lr1 = tc.means_lr_init * extent, tc.means_lr_final * extent
-    lrs["means"] = lambda step: math.exp(math.log(lr0) * (1 - min(step / cfg.iterations, 1.0)) + math.log(lr1) * min(step / cfg.iterations, 1.0))
-    rows = None
-    if cfg.supervision == "mask":  # ablation e): only what lies in the masked region moves
-        rows = _rows_in_masks(model, views)
-        rows[len(scene_model) :] = True
+    lrs["means"] = lambda step: means_lr(step, tc, extent)  # 3DGS exponential decay over this run
 
     def render_fn(g, target, step, gen):
-        return render(g, target.camera, background=torch.zeros(3), backend=cfg.backend)
+        st = static.subset(target.data["static"])
+        full = Gaussians(**{k: torch.cat([getattr(g, k), getattr(st, k)], 0) for k in PARAM_NAMES})
+        return render(full, target.camera, background=torch.zeros(3), backend=cfg.backend)
 
     def loss_fn(out, target, step):
         d = target.data
         return hybrid_loss(out.color, d["image"], d["mask"], d["valid"], cfg)
 
-    loop = OptimizationLoop(model, train=lrs, views=TargetList(targets), render_fn=render_fn, loss_fn=loss_fn, trainable_rows=rows, seed=cfg.seed)
+    loop = OptimizationLoop(model, train=lrs, views=TargetList(targets), render_fn=render_fn, loss_fn=loss_fn, seed=cfg.seed)
     log = []
     for i in range(cfg.iterations):
         res = loop.step()
@@ -162,4 +220,6 @@ def refine(scene_model: Gaussians, new: Gaussians, views: Sequence[InpaintedView
             progress(1)
         if (i + 1) % 50 == 0 or i + 1 == cfg.iterations:
             log.append({"step": i + 1, "loss": res.loss, **res.logs})
-    return loop.detached(), log
+    trained = loop.detached()
+    final = Gaussians(**{k: torch.cat([getattr(static, k), getattr(trained, k)], 0) for k in PARAM_NAMES})
+    return final, log

@@ -146,7 +146,8 @@ def inpaint_scene(
     # 6. 3D inpainting, occluders back
     t0 = time.perf_counter()
     bar = tqdm(total=cfg.refine.resolved().iterations, desc="3D inpainting", disable=not progress, dynamic_ncols=True)
-    refined, log = refine(edited, new, views, cfg.refine, extent=scene.extent, progress=bar.update)
+    region = original.means[removed_mask].detach().double().numpy()
+    refined, log = refine(edited, new, views, cfg.refine, region=region, extent=scene.extent, progress=bar.update)
     bar.close()
     occ_g = original.subset(occ_mask)
     final = Gaussians(**{k: torch.cat([getattr(refined, k), getattr(occ_g, k).detach()], 0) for k in ("means", "log_scales", "quats", "opacity_logits", "sh0", "shN")})
