@@ -40,6 +40,9 @@ validate(config, "workflow/config/config.schema.yaml")
 include: "workflow/rules/common.smk"
 include: "workflow/rules/dataset.smk"
 include: "workflow/rules/reconstruct.smk"
+include: "workflow/rules/object_field.smk"
+include: "workflow/rules/inpaint.smk"
+include: "workflow/rules/evaluate.smk"
 
 
 rule all:

@@ -1,32 +1,79 @@
-# Shared helpers: scene lists and paths derived from the config.
+# Shared helpers: scenes, methods and paths derived from the config.
 
-import json
+import os
+import shlex
+
+import yaml
 
 
 DATA = config["data_dir"]
 OUT = config["out_dir"]
 RESULTS = config["results_dir"]
+THREADS = config["threads"]
+BACKEND = config["backend"]
 
 
-def _all_scene_names():
-    from dataset_tools.synth import SCENES
+def _synthetic_names():
+    from dataset_tools.synth import SCENES as names
 
-    return sorted(SCENES)
-
-
-def _expand(names):
-    return _all_scene_names() if names == ["all"] else list(names)
+    return sorted(names)
 
 
-SCENES = _expand(config["scenes"])
+def _is_folder(entry):
+    return "/" in entry or entry.startswith(".")
+
+
+def _expand(entries):
+    return _synthetic_names() if entries == ["all"] else list(entries)
+
+
+# `scenes:` entries are synthetic scene names (generated under data_dir) or scene folders (the
+# released Inpaint360GS layout, a scene built from one's own photos, an imported scene): a folder's
+# scene name is its last path component.
+SCENE_DIRS = {}
+for _entry in _expand(config["scenes"]):
+    _name = os.path.basename(os.path.normpath(_entry)) if _is_folder(_entry) else _entry
+    if _name in SCENE_DIRS:
+        raise WorkflowError(f"config: two scenes are named {_name!r}")
+    SCENE_DIRS[_name] = os.path.normpath(_entry) if _is_folder(_entry) else None
+SCENES = list(SCENE_DIRS)
+SYNTHETIC = [s for s, d in SCENE_DIRS.items() if d is None]
 TRAIN_SCENES = _expand(config["train_scenes"])
 
-unknown = sorted(set(SCENES + TRAIN_SCENES) - set(_all_scene_names()))
+unknown = sorted(set(SYNTHETIC + TRAIN_SCENES) - set(_synthetic_names()))
 if unknown:
-    raise WorkflowError(f"config: unknown scene name(s) {unknown}; known: {_all_scene_names()}")
+    raise WorkflowError(f"config: unknown scene name(s) {unknown} (synthetic: {_synthetic_names()}; a scene folder is given by its path, e.g. ./my_scene)")
+missing = sorted(d for d in SCENE_DIRS.values() if d is not None and not os.path.isfile(f"{d}/scene.json"))
+if missing:
+    raise WorkflowError(f"config: scene folder(s) without scene.json: {missing}")
+
+# The method and its comparisons (paper Tab. 1 and Tab. 3). `inpaint`: the arguments of
+# `inpaint360gs inpaint` (None: the scene after removal is rendered as it is).
+METHODS = {
+    "full": dict(kind="method", name="Inpaint360GS (ours)", association="kom", inpaint=""),
+    "removal_only": dict(kind="baseline", name="removal only (no inpainting)", association="kom", inpaint=None),
+    "per_view_2d": dict(
+        kind="baseline",
+        name="per-view 2D inpainting + 3D fine-tuning",
+        association="kom",
+        inpaint="--views training --masks footprint --no-condition --init none",
+    ),
+    "abl_a": dict(kind="ablation", labels=dict(ablation="a"), name="a) w/o object association", association="tracker", inpaint=""),
+    "abl_b": dict(kind="ablation", labels=dict(ablation="b"), name="b) w/o depth-guided initialisation", association="kom", inpaint="--init naive"),
+    "abl_c": dict(kind="ablation", labels=dict(ablation="c"), name="c) w/o virtual views", association="kom", inpaint="--views training"),
+    "abl_d": dict(kind="ablation", labels=dict(ablation="d"), name="d) w/o recursive conditioning", association="kom", inpaint="--no-condition"),
+    "abl_e": dict(kind="ablation", labels=dict(ablation="e"), name="e) w/o hybrid supervision", association="kom", inpaint="--supervision mask"),
+}
+unknown = sorted(set(config["methods"]) - set(METHODS))
+if unknown:
+    raise WorkflowError(f"config: unknown method(s) {unknown}; known: {sorted(METHODS)}")
+SEGMENTERS = list(config["segmenters"])
 
 wildcard_constraints:
-    scene="|".join(SCENES + TRAIN_SCENES),
+    scene="|".join(sorted(set(SCENES + TRAIN_SCENES))),
+    segmenter="geometric|oracle|sam",
+    association="kom|tracker",
+    method="|".join(METHODS),
 
 
 def synth_flags():
@@ -37,14 +84,69 @@ def synth_flags():
 
 
 def scene_dir(scene):
-    """Scene folder the method stages read: generator poses, or the COLMAP rebuild (config `poses`)."""
+    """Scene folder the method stages read: a given folder, the generator's scene, or its COLMAP
+    rebuild (config `poses`)."""
+    if SCENE_DIRS.get(scene) is not None:
+        return SCENE_DIRS[scene]
     if config["poses"] == "colmap":
         return f"{DATA}_colmap/{scene}"
     return f"{DATA}/{scene}"
+
+
+def runs():
+    """(scene, segmenter, method) of every run; the oracle segmenter reads the generator's ground
+    truth, so it runs on synthetic scenes only."""
+    return [(s, g, m) for s in SCENES for g in SEGMENTERS for m in config["methods"] if g != "oracle" or s in SYNTHETIC]
+
+
+def run_dir(wc):
+    return f"{OUT}/{wc.scene}/{wc.segmenter}"
+
+
+def removal_dir(wc, association):
+    return f"{OUT}/{wc.scene}/{wc.segmenter}/{association}/removed"
+
+
+def method_renders(wc):
+    """The test_ renders a method is evaluated on, and the stage output that holds them."""
+    m = METHODS[wc.method]
+    if m["inpaint"] is None:
+        return f"{OUT}/{wc.scene}/{wc.segmenter}/{m['association']}/removed_renders/render.json", "color"
+    return f"{OUT}/{wc.scene}/{wc.segmenter}/methods/{wc.method}/inpaint.json", "renders/test"
+
+
+def stage_benchmarks(wc):
+    """Snakemake benchmark files of every stage a method's result depends on (runtime table)."""
+    m = METHODS[wc.method]
+    a = m["association"]
+    b = f"{OUT}/benchmarks/{wc.scene}"
+    stages = {
+        "train": f"{b}/train_3dgs.tsv",
+        "segment": f"{b}/{wc.segmenter}/segment.tsv",
+        "associate": f"{b}/{wc.segmenter}/{a}/associate.tsv",
+        "distill": f"{b}/{wc.segmenter}/{a}/distill.tsv",
+        "remove": f"{b}/{wc.segmenter}/{a}/remove.tsv",
+    }
+    if m["inpaint"] is None:
+        stages["render"] = f"{b}/{wc.segmenter}/{a}/render_removed.tsv"
+    else:
+        stages["inpaint"] = f"{b}/{wc.segmenter}/methods/{wc.method}/inpaint.tsv"
+    stages["evaluate"] = f"{b}/{wc.segmenter}/methods/{wc.method}/evaluate.tsv"
+    return stages
+
+
+def method_model(wc):
+    """The PLY a method produces (its storage in the runtime table)."""
+    m = METHODS[wc.method]
+    if m["inpaint"] is None:
+        return f"{OUT}/{wc.scene}/{wc.segmenter}/{m['association']}/removed/removal.json"
+    return f"{OUT}/{wc.scene}/{wc.segmenter}/methods/{wc.method}/inpaint.json"
 
 
 def all_targets():
     targets = [f"{scene_dir(s)}/scene.json" for s in SCENES]
     if TRAIN_SCENES:
         targets.append(f"{RESULTS}/3dgs_reconstruction.md")
+    if config["methods"]:
+        targets.append(f"{RESULTS}/table1_average.md")
     return targets

@@ -17,9 +17,14 @@ rule train_3dgs:
         backend=config["train"]["backend"],
         extra=config["train"]["extra_args"],
         seed=config["seed"],
-    threads: 2
+    threads: THREADS
+    resources:
+        mem_mb=6000,
+        gpu=1 if config["train"]["backend"] == "gsplat" else 0,
     log:
         f"{OUT}/logs/train_3dgs_{{scene}}.log",
+    benchmark:
+        f"{OUT}/benchmarks/{{scene}}/train_3dgs.tsv"
     shell:
         # --resume --overwrite: an interrupted run continues from its checkpoint; a checkpoint made
         # with other settings or another scene is discarded and training starts afresh

@@ -10,7 +10,7 @@ from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, 
 
 
 def add_click_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--click", action="append", default=[], metavar="VIEW:X,Y", help="a pixel (column X, row Y) inside the object in a training view; repeat for several objects")
+    parser.add_argument("--click", action="append", default=[], metavar="VIEW:X,Y", help="a pixel (column X, row Y) inside the object in a training view; repeat for several objects (default: the clicks scene.json names)")
     parser.add_argument("--id", action="append", type=positive_int, default=[], help="an object id read off the rendered id map; repeatable")
 
 
@@ -38,12 +38,15 @@ def run(args: argparse.Namespace) -> int:
 
     set_threads(args.threads)
     clicks = [Click.parse(c) for c in args.click]
-    if not clicks and not args.id:
-        from inpaint360gs.core.errors import InputError
-
-        raise InputError("nothing selected: give --click VIEW:X,Y or --id N")
     cfg = RemovalConfig(threshold=args.threshold, hull=not args.no_hull)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
+    if not clicks and not args.id:  # as `inpaint360gs run`: the clicks scene.json names
+        from inpaint360gs.core.errors import InputError
+        from inpaint360gs.pipeline.run import scene_clicks
+
+        clicks = scene_clicks(scene)
+        if not clicks:
+            raise InputError("nothing selected: give --click VIEW:X,Y or --id N (scene.json names no clicks)", scene.root / "scene.json")
     field = IdentityField.load(args.distill)
     info = removal_stage(field, scene, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,
                          meta={"scene": str(scene.root), "distill": str(args.distill)})  # fmt: skip

@@ -1,0 +1,36 @@
+# Inpainting after removal (paper Sec. 3.4-3.5): virtual views, unseen masks, recursive conditional
+# RGB-D 2D inpainting, depth-guided initialisation, 3D hybrid fine-tuning. One job per method that
+# inpaints (the full method, the per-view 2D baseline, ablations a-e), all on the shared removal.
+
+
+rule inpaint:
+    """`inpaint360gs inpaint` with the method's switches (common.smk, METHODS)."""
+    input:
+        scene_json=lambda wc: f"{scene_dir(wc.scene)}/scene.json",
+        distill=lambda wc: f"{OUT}/{wc.scene}/{wc.segmenter}/{METHODS[wc.method]['association']}/distill/distill.json",
+        removal=lambda wc: f"{OUT}/{wc.scene}/{wc.segmenter}/{METHODS[wc.method]['association']}/removed/removal.json",
+    output:
+        f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.json",
+    params:
+        backend=BACKEND,
+        scene_dir=lambda wc: scene_dir(wc.scene),
+        distill=lambda wc: f"{run_dir(wc)}/{METHODS[wc.method]['association']}/distill",
+        removed=lambda wc: f"{run_dir(wc)}/{METHODS[wc.method]['association']}/removed",
+        out=lambda wc: f"{run_dir(wc)}/methods/{wc.method}",
+        switches=lambda wc: METHODS[wc.method]["inpaint"],
+        iterations=config["inpaint"]["iterations"],
+        views=config["inpaint"]["virtual_views"],
+        extra=config["inpaint"]["extra_args"],
+        seed=config["seed"],
+    threads: THREADS
+    resources:
+        mem_mb=8000,
+        gpu=1 if BACKEND == "gsplat" else 0,
+    log:
+        f"{OUT}/logs/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.log",
+    benchmark:
+        f"{OUT}/benchmarks/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.tsv"
+    shell:
+        "inpaint360gs inpaint {params.scene_dir:q} {params.distill:q} {params.removed:q} {params.out:q} {params.switches}"
+        " --inpaint-iterations {params.iterations} --virtual-views {params.views} --seed {params.seed}"
+        " --backend {params.backend} --threads {threads} --overwrite --no-progress {params.extra} > {log:q} 2>&1"
