@@ -23,7 +23,7 @@ STAGES: dict[str, tuple[str, str]] = {
     "run": ("inpaint360gs.cli.run", "the whole method on one scene folder (train -> segment -> associate -> distill -> remove -> inpaint)"),
     "evaluate": ("inpaint360gs.cli.evaluate", "score renders of a scene's test_ views: full, masked and ROI metrics, LPIPS, FID or its substitutes"),
     "distill": ("inpaint360gs.cli.distill", "distill associated object masks into identity features of a trained model (Sec. 3.3)"),
-    "table": ("inpaint360gs.cli.table", "collect per-scene metrics.json files into CSV/Markdown tables"),
+    "table": ("inpaint360gs.cli.table", "tables: 3DGS reconstruction, one run's record, the paper's Tabs. 1-3 from records (CSV/Markdown/LaTeX)"),
 }
 
 
