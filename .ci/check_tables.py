@@ -34,7 +34,7 @@ if per_scene is not None and len(per_scene) != n_runs:
     problems.append(f"per_scene.csv has {len(per_scene)} rows, expected {n_runs}")
 try:
     prov = json.loads((results / "provenance.json").read_text())
-    for key in ("commit", "packages", "machine"):
+    for key in ("git_commit", "config", "packages", "machine", "weights"):
         if key not in prov:
             problems.append(f"provenance.json lacks {key}")
 except (OSError, ValueError) as e:

@@ -50,7 +50,7 @@ if missing:
 # The method and its comparisons (paper Tab. 1 and Tab. 3). `inpaint`: the arguments of
 # `inpaint360gs inpaint` (None: the scene after removal is rendered as it is).
 METHODS = {
-    "full": dict(kind="method", name="Inpaint360GS (ours)", association="kom", inpaint=""),
+    "full": dict(kind="method", name="Inpaint360GS", association="kom", inpaint=""),
     "removal_only": dict(kind="baseline", name="removal only (no inpainting)", association="kom", inpaint=None),
     "per_view_2d": dict(
         kind="baseline",
@@ -58,11 +58,11 @@ METHODS = {
         association="kom",
         inpaint="--views training --masks footprint --no-condition --init none",
     ),
-    "abl_a": dict(kind="ablation", labels=dict(ablation="a"), name="a) w/o object association", association="tracker", inpaint=""),
-    "abl_b": dict(kind="ablation", labels=dict(ablation="b"), name="b) w/o depth-guided initialisation", association="kom", inpaint="--init naive"),
-    "abl_c": dict(kind="ablation", labels=dict(ablation="c"), name="c) w/o virtual views", association="kom", inpaint="--views training"),
-    "abl_d": dict(kind="ablation", labels=dict(ablation="d"), name="d) w/o recursive conditioning", association="kom", inpaint="--no-condition"),
-    "abl_e": dict(kind="ablation", labels=dict(ablation="e"), name="e) w/o hybrid supervision", association="kom", inpaint="--supervision mask"),
+    "abl_a": dict(kind="ablation", labels=dict(ablation="a"), name="w/o object association", association="tracker", inpaint=""),
+    "abl_b": dict(kind="ablation", labels=dict(ablation="b"), name="w/o depth-guided initialisation", association="kom", inpaint="--init naive"),
+    "abl_c": dict(kind="ablation", labels=dict(ablation="c"), name="w/o virtual views", association="kom", inpaint="--views training"),
+    "abl_d": dict(kind="ablation", labels=dict(ablation="d"), name="w/o recursive conditioning", association="kom", inpaint="--no-condition"),
+    "abl_e": dict(kind="ablation", labels=dict(ablation="e"), name="w/o hybrid supervision", association="kom", inpaint="--supervision mask"),
 }
 unknown = sorted(set(config["methods"]) - set(METHODS))
 if unknown:
