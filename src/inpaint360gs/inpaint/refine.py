@@ -80,15 +80,13 @@ def _bbox(mask: torch.Tensor, margin: int) -> tuple[slice, slice]:
     return slice(r0, r1), slice(c0, c1)
 
 
-# the smallest side the LPIPS networks take: AlexNet's 11/4 convolution and two 3/2 max-pools need 31 pixels
-LPIPS_MIN_SIDE = 32
+def _lpips_crop(x: torch.Tensor, rs: slice, cs: slice, net: str) -> torch.Tensor:
+    """(3, h, w) crop of the masked (H, W, 3) image ``x``, zero-padded to at least the smallest side
+    ``net`` takes: outside the mask the product is zero anyway, so the padding is the crop grown by more margin."""
+    from inpaint360gs.metrics.lpips import MIN_SIDE
 
-
-def _lpips_crop(x: torch.Tensor, rs: slice, cs: slice) -> torch.Tensor:
-    """(3, h, w) crop of the masked (H, W, 3) image ``x``, zero-padded to at least LPIPS_MIN_SIDE on each
-    side: outside the mask the product is zero anyway, so the padding is the crop grown by more margin."""
     a = x[rs, cs].permute(2, 0, 1)
-    ph, pw = max(LPIPS_MIN_SIDE - a.shape[1], 0), max(LPIPS_MIN_SIDE - a.shape[2], 0)
+    ph, pw = max(MIN_SIDE[net] - a.shape[1], 0), max(MIN_SIDE[net] - a.shape[2], 0)
     if ph or pw:
         a = torch.nn.functional.pad(a, (pw // 2, pw - pw // 2, ph // 2, ph - ph // 2))
     return a
@@ -115,7 +113,7 @@ def hybrid_loss(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor, va
         logs["dssim"] = dssim.item()
     if cfg.lambda_lpips > 0 and mask.any():
         rs, cs = _bbox(mask, cfg.lpips_margin)
-        lp = lpips(_lpips_crop(pred * m, rs, cs), _lpips_crop(target * m, rs, cs), net=cfg.lpips_net)
+        lp = lpips(_lpips_crop(pred * m, rs, cs, cfg.lpips_net), _lpips_crop(target * m, rs, cs, cfg.lpips_net), net=cfg.lpips_net)
         loss = loss + cfg.lambda_lpips * lp
         logs["lpips"] = lp.item()
     return loss, logs
