@@ -1,6 +1,6 @@
-"""Bad input to ``inpaint360gs inpaint SCENE DISTILL REMOVED OUT``: one line, a documented exit code,
-nothing written (docs/architecture.md, "Reliability"), and refusals that can be made before the work
-starts are made before it.
+"""Bad input to ``inpaint360gs inpaint SCENE DISTILL REMOVED OUT`` and ``inpaint360gs evaluate``: one
+line, a documented exit code, nothing written (docs/architecture.md, "Reliability"), and refusals that
+can be made before the work starts are made before it.
 
 The distillation output is built directly (a Gaussian model with one-hot identity features and an
 identity classifier, saved the way ``distill`` saves it) instead of trained, and so are the removal
@@ -235,3 +235,76 @@ def test_the_far_object_is_off_screen_in_every_candidate_virtual_view():
             u, v, z = project(cam, far.numpy())
             margin = 4.0  # pixels: more than the clusters' footprint
             assert not ((z > 0) & (u > -margin) & (u < W + margin) & (v > -margin) & (v < H + margin)).any()
+
+
+# --- evaluate: renders of the test views against the scene -----------------------------------------------
+
+
+def renders(c, spoil=None, named=None):
+    """A renders folder (the test views' own pictures) passed through ``spoil(folder)``."""
+    import shutil
+
+    folder = c.tmp / "renders"
+    folder.mkdir()
+    for p in sorted((Path(c.fx("built")) / "scene" / "images").glob("test_*")):
+        shutil.copy(p, folder / p.name)
+    got = spoil(folder) if spoil else None
+    return folder, got
+
+
+def evaluate(spoil=None, *extra: str, named: str | None = None, out: str | None = None):
+    def make(c):
+        folder, got = renders(c, spoil)
+        argv = ["evaluate", str(folder), str(Path(c.fx("built")) / "scene"), out or c.path("m.json"), "--nets", "vgg", "--threads", "1", *extra]
+        return argv, named or str(got)
+
+    return make
+
+
+def out_in(c, where: str, rel: str):
+    """OUT inside an input folder, at a file the stage reads (or would read on the next run)."""
+    argv, _ = evaluate()(c)
+    folder = Path(argv[1]) if where == "renders" else Path(argv[2])
+    out = str(folder / rel)
+    return [*argv[:3], out, *argv[4:]], out
+
+
+def small_for_alexnet(c):
+    folder, _ = renders(c)
+    scene = Path(c.fx("built")) / "scene"
+    return ["evaluate", str(folder), str(scene), c.path("m.json"), "--threads", "1"], (str(scene / "images"), "LPIPS-alex")
+
+
+EVALUATE = [
+    Case("evaluate-renders-missing", T, lambda c: (["evaluate", c.path("nope"), str(Path(c.fx("built")) / "scene"), c.path("m.json")], c.path("nope"))),
+    Case("evaluate-render-wrong-size", T, evaluate(lambda f: sb.write_png(f / "test_001.png", np.zeros((H, W + 2, 3), np.uint8)) or f / "test_001.png")),
+    Case("evaluate-render-not-a-picture", T, evaluate(lambda f: put(f / "test_001.png", "not a picture"))),
+    Case("evaluate-render-stray", T, evaluate(lambda f: put(f / "test_009.png", (f / "test_000.png").read_bytes()))),
+    Case("evaluate-render-missing", T, evaluate(lambda f: remove(f / "test_001.png") and None, named="test_001.png")),
+    Case("evaluate-nets-unknown", T, evaluate(None, "--nets", "squeeze", named="--nets")),
+    Case("evaluate-inception-missing", T, lambda c: (evaluate(None, "--inception-weights", c.path("no.pth"), named="--inception-weights")(c))),
+    Case("evaluate-out-is-a-render", T, lambda c: out_in(c, "renders", "test_000.png")),
+    Case("evaluate-out-is-a-new-picture-among-the-renders", T, lambda c: out_in(c, "renders", "test_002.png")),
+    Case("evaluate-out-in-scene", T, lambda c: out_in(c, "scene", "metrics.json")),
+    Case("evaluate-out-is-a-ground-truth-picture", T, lambda c: out_in(c, "scene", "images/test_000.png")),
+    Case("evaluate-out-is-folder", T, lambda c: evaluate(None, named=c.dir("sub"), out=c.path("sub"))(c)),
+    Case("evaluate-images-too-small-for-alexnet", T, small_for_alexnet),
+]
+
+
+@pytest.mark.parametrize("case", ids_unique(EVALUATE))
+def test_evaluate_bad_input(case, tmp_path, request, capsys):
+    check(case, tmp_path, request, capsys)
+
+
+def test_evaluate_of_the_same_inputs_works(built, tmp_path, capsys):
+    import shutil
+
+    folder = tmp_path / "renders"
+    folder.mkdir()
+    for p in sorted((built / "scene" / "images").glob("test_*")):
+        shutil.copy(p, folder / p.name)
+    code, _, err = run_cli(T, ["evaluate", str(folder), str(built / "scene"), str(tmp_path / "m.json"), "--nets", "vgg", "--threads", "1"], capsys)
+    assert code == 0, err
+    res = json.loads((tmp_path / "m.json").read_text())
+    assert res["num_views"] == 2 and res["mean"]["lpips"] == 0.0 and res["mean"]["psnr"] is None  # identical pictures: PSNR is +inf
