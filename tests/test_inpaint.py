@@ -334,13 +334,14 @@ def hole_case():
     floor = textured_floor()
     hole = (floor.means[:, :2].abs() < 0.35).all(1)
     edited = floor.subset(~hole)
-    cams = floor_cameras([0, 50, 110, 200])
+    cams = floor_cameras([0, 50, 110, 200], w=64, h=48, f=52.0)  # crops smaller than the image
     views = []
     with torch.no_grad():
         for cam in cams:
             o = render(floor, cam)
             mask = footprint(floor, hole, cam, 0.5)
-            assert mask.sum() > 20
+            x0, y0, x1, y1 = crop_rect(mask, RefineConfig.crop_margin_px, 0.5)
+            assert mask.sum() > 20 and (x1 - x0) * (y1 - y0) < 0.8 * mask.size
             views.append(InpaintedView(cam, o.color.clamp(0, 1).numpy(), normalised_depth(o).numpy(), mask, np.ones(mask.shape, bool), np.zeros(mask.shape, bool)))
     removed = floor.subset(hole)
     new = Gaussians.from_points(removed.means.clone(), torch.full((len(removed), 3), 0.5), sh_degree=0, init_opacity=0.5,
