@@ -27,6 +27,7 @@ def run(args: argparse.Namespace) -> int:
 
     from inpaint360gs.cli.common import check_apart, set_threads
     from inpaint360gs.core.errors import InputError
+    from inpaint360gs.core.layout import IMAGE_SUFFIXES
     from inpaint360gs.io.atomic import write_text
     from inpaint360gs.metrics.evaluate import evaluate_renders
 
@@ -36,6 +37,10 @@ def run(args: argparse.Namespace) -> int:
     if bad or not nets:
         raise InputError(f"unknown LPIPS network(s) {bad or nets} (vgg, alex)", "--nets")
     check_apart({"OUT": args.out}, {"RENDERS": args.renders, "SCENE": args.scene}, replaced=False)
+    # nor a file the stage reads: anything in SCENE, a picture in RENDERS
+    out = args.out.resolve()
+    if args.scene.resolve() in out.parents or (args.renders.resolve() in out.parents and out.suffix.lower() in IMAGE_SUFFIXES):
+        raise InputError(f"output OUT lies inside the input {'SCENE' if args.scene.resolve() in out.parents else 'RENDERS'}, whose files this stage reads; choose another output", args.out)
     res = evaluate_renders(args.renders, args.scene, nets=nets, inception_weights=args.inception_weights)
     write_text(args.out, json.dumps(res, indent=1, allow_nan=False) + "\n")
     m = res["mean"]

@@ -8,7 +8,18 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, existing_dir, existing_file, nonneg_float, nonneg_int, output_dir, positive_int, set_threads
+from inpaint360gs.cli.common import (
+    add_backend_argument,
+    add_threads_argument,
+    check_apart,
+    existing_dir,
+    existing_file,
+    nonneg_float,
+    nonneg_int,
+    output_dir,
+    positive_int,
+    set_threads,
+)
 
 
 def add_inpaint_arguments(parser: argparse.ArgumentParser) -> None:
@@ -71,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.inpaint.stage import inpaint_from_removal
     from inpaint360gs.io.scene import load_scene
 
+    check_apart({"OUT": args.out}, {"SCENE": args.scene, "DISTILL": args.distill, "REMOVED": args.removed, "--lama-onnx": args.lama_onnx})  # OUT is replaced as a whole
     set_threads(args.threads)
     cfg = inpaint_config(args, args.seed, args.backend)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)

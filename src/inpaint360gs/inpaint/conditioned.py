@@ -87,9 +87,11 @@ def inpaint_views(
         cond = np.zeros_like(mask)
         if condition and cloud is not None and mask.any():
             c = render(cloud, cam, backend=backend)
-            cov = c.alpha.numpy() >= min_alpha
+            a = c.alpha.numpy()
+            cov = a >= min_alpha
             cond = mask & cov
-            color[cond] = c.color.clamp(0, 1).numpy()[cond]
+            # the surface's colour: Σ cαT over a black background divided by alpha, like the depth
+            color[cond] = (c.color.numpy()[cond] / a[cond][:, None]).clip(0, 1)
             depth[cond] = normalised_depth(c).numpy()[cond]
             hole = mask & ~cov
         # outside the mask, pixels without a surface (holes left by occluders taken out) carry no depth

@@ -7,7 +7,8 @@ views with
 
 the L1 term averaged over the mask pixels, D-SSIM over the whole image (pixels whose target is
 meaningful: not a hole left by a temporarily removed occluder), LPIPS on both images multiplied by
-the mask, computed on the mask's bounding box (with a margin) since the rest of the product is zero.
+the mask, computed on the mask's bounding box (with a margin, and at least the networks' smallest input)
+since the rest of the product is zero.
 Defaults are the paper's: λ1 = 0.2, λ2 = 0.005, 2000 iterations. ``variant="code"`` uses the
 authors' public code instead (λ1 = 0.8, λ2 = 0.0005, 5000 iterations, L1 over the whole image).
 ``supervision="mask"`` is ablation e) (Tab. 3, "w/o 3D hybrid supervision"): only the masked L1
@@ -79,6 +80,18 @@ def _bbox(mask: torch.Tensor, margin: int) -> tuple[slice, slice]:
     return slice(r0, r1), slice(c0, c1)
 
 
+def _lpips_crop(x: torch.Tensor, rs: slice, cs: slice, net: str) -> torch.Tensor:
+    """(3, h, w) crop of the masked (H, W, 3) image ``x``, zero-padded to at least the smallest side
+    ``net`` takes: outside the mask the product is zero anyway, so the padding is the crop grown by more margin."""
+    from inpaint360gs.metrics.lpips import MIN_SIDE
+
+    a = x[rs, cs].permute(2, 0, 1)
+    ph, pw = max(MIN_SIDE[net] - a.shape[1], 0), max(MIN_SIDE[net] - a.shape[2], 0)
+    if ph or pw:
+        a = torch.nn.functional.pad(a, (pw // 2, pw - pw // 2, ph // 2, ph - ph // 2))
+    return a
+
+
 def hybrid_loss(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor, valid: torch.Tensor, cfg: RefineConfig) -> tuple[torch.Tensor, dict[str, float]]:
     """Eq. 6 on (H, W, 3) images, ``mask`` (H, W) bool (the region filled), ``valid`` (H, W) bool."""
     from inpaint360gs.metrics.lpips import lpips
@@ -100,9 +113,7 @@ def hybrid_loss(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor, va
         logs["dssim"] = dssim.item()
     if cfg.lambda_lpips > 0 and mask.any():
         rs, cs = _bbox(mask, cfg.lpips_margin)
-        a = (pred * m)[rs, cs].permute(2, 0, 1)
-        b = (target * m)[rs, cs].permute(2, 0, 1)
-        lp = lpips(a, b, net=cfg.lpips_net)
+        lp = lpips(_lpips_crop(pred * m, rs, cs, cfg.lpips_net), _lpips_crop(target * m, rs, cs, cfg.lpips_net), net=cfg.lpips_net)
         loss = loss + cfg.lambda_lpips * lp
         logs["lpips"] = lp.item()
     return loss, logs

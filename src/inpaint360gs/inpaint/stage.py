@@ -59,6 +59,22 @@ class InpaintConfig:
     backend: str = "auto"
 
 
+def _check_config(cfg: InpaintConfig) -> None:
+    """The settings' names, before any work (the CLI's choices check them too)."""
+    for value, allowed, flag in ((cfg.views, ("virtual", "training"), "--views"), (cfg.masks, ("unseen", "footprint"), "--masks"), (cfg.init, ("depth", "naive", "none"), "--init")):
+        if value not in allowed:
+            raise InputError(f"unknown setting {value!r} ({', '.join(allowed)})", flag)
+    cfg.refine.resolved()
+
+
+def _nothing_to_fill(model: Gaussians, removed: torch.Tensor, cameras: list, cfg: InpaintConfig, kind: str, removal) -> InputError:
+    """Why the region to fill is empty in every view: the removed Gaussians cover no pixel of any of
+    ``cameras`` (off-screen, hidden or transparent), or the surface they hid was seen in training."""
+    if any(footprint(model, removed, c, cfg.unseen.footprint_share, cfg.backend).any() for c in cameras):
+        return InputError(f"the unseen masks are empty in every {kind} view: the training views saw all the surface the removal reveals (nothing to inpaint)", removal)
+    return InputError(f"the removed Gaussians cover no pixel of any {kind} view (off-screen, hidden or transparent): nothing to inpaint", removal)
+
+
 def _per_gaussian_ids(field_: IdentityField) -> np.ndarray:
     probs = field_.gaussian_probs()
     return np.asarray(field_.object_ids)[probs.argmax(dim=1).numpy()]
@@ -72,14 +88,20 @@ def inpaint_scene(
     cfg: InpaintConfig | None = None,
     *,
     progress: bool = False,
+    removal: str | Path | None = None,
 ) -> tuple[Gaussians, dict, list]:
-    """Run steps 1–6 (see the module docstring); returns (final model, record, inpainted views)."""
+    """Run steps 1–6 (see the module docstring); returns (final model, record, inpainted views).
+    ``removal`` (the removal stage's folder) is what errors about the selection name."""
     cfg = cfg or InpaintConfig()
+    _check_config(cfg)
     t = {}
     t0 = time.perf_counter()
     original = field_.gaussians.map(lambda x: x.detach())
     if not bool(removed_mask.any()):
-        raise InputError("nothing was removed: no Gaussian is marked in the removal")
+        raise InputError("nothing was removed: no Gaussian is marked in the removal", removal)
+    # the 2D inpainters load their checkpoints now, so that a bad one fails before any work
+    opts = {"seed": cfg.refine.seed, **({"lama_onnx": cfg.lama_onnx} if cfg.lama_onnx else {})}
+    rgb, dep = make_inpainter(cfg.rgb_inpainter, **opts), make_inpainter(cfg.depth_inpainter, **opts)
     train_cams = [v.camera for v in scene.train_views]
     visibility = TrainingVisibility(original, train_cams, backend=cfg.backend)
     edited = original.subset(~removed_mask)
@@ -89,15 +111,22 @@ def inpaint_scene(
     t0 = time.perf_counter()
     centre = original.means[removed_mask].detach().double().median(dim=0).values.numpy()
 
+    tried: list[tuple[list, list]] = []  # (candidate cameras, their fill shares)
+
     def shares(cams):
-        return [unseen_mask(original, removed_mask, edited, c, visibility, cfg.unseen, cfg.backend)[0].mean() for c in cams]
+        s = [unseen_mask(original, removed_mask, edited, c, visibility, cfg.unseen, cfg.backend)[0].mean() for c in cams]
+        tried.append((cams, s))
+        return s
 
     if cfg.views == "virtual":
-        cameras, trajectory = choose_trajectory(train_cams, centre, shares, cfg.virtual)
-    elif cfg.views == "training":
-        cameras, trajectory = train_cams, {"training_views": [v.name for v in scene.train_views]}
+        try:
+            cameras, trajectory = choose_trajectory(train_cams, centre, shares, cfg.virtual)
+        except InputError:
+            if not tried or any(max(s) > 0 for _, s in tried):
+                raise
+            raise _nothing_to_fill(original, removed_mask, [c for cams, _ in tried for c in cams], cfg, "virtual", removal) from None
     else:
-        raise InputError(f"unknown view source {cfg.views!r} (virtual, training)", "--views")
+        cameras, trajectory = train_cams, {"training_views": [v.name for v in scene.train_views]}
     t["cameras_s"] = time.perf_counter() - t0
 
     # 2. occluders out
@@ -114,18 +143,14 @@ def inpaint_scene(
     t0 = time.perf_counter()
     if cfg.masks == "unseen":
         masks = [unseen_mask(base, base_removed, edited, c, visibility, cfg.unseen, cfg.backend)[0] for c in cameras]
-    elif cfg.masks == "footprint":  # the whole rendered footprint, dilated (what per-view 2D pipelines inpaint)
+    else:  # "footprint": the whole rendered footprint, dilated (what per-view 2D pipelines inpaint)
         masks = [clean_mask(footprint(base, base_removed, c, cfg.unseen.footprint_share, cfg.backend), cfg.unseen.min_component, cfg.unseen.dilate) for c in cameras]
-    else:
-        raise InputError(f"unknown mask kind {cfg.masks!r} (unseen, footprint)", "--masks")
     if not any(m.any() for m in masks):
-        raise InputError("the unseen masks are empty in every view: nothing to inpaint (the revealed surface was seen by the training views)")
+        raise _nothing_to_fill(base, base_removed, cameras, cfg, cfg.views, removal)
     t["unseen_masks_s"] = time.perf_counter() - t0
 
     # 4. 2D inpainting
     t0 = time.perf_counter()
-    opts = {"seed": cfg.refine.seed, **({"lama_onnx": cfg.lama_onnx} if cfg.lama_onnx else {})}
-    rgb, dep = make_inpainter(cfg.rgb_inpainter, **opts), make_inpainter(cfg.depth_inpainter, **opts)
     views = inpaint_views(edited, cameras, masks, rgb.rgb, dep.depth, condition=cfg.condition, backend=cfg.backend)
     consistency = reprojection_error(views)
     t["inpaint_2d_s"] = time.perf_counter() - t0
@@ -137,10 +162,8 @@ def inpaint_scene(
     elif cfg.init == "naive":
         box = original.means[removed_mask].detach().numpy()
         new = naive_init(views, box.min(0), box.max(0), max(1, len(depth_guided_init(views, sh_degree=0))), seed=cfg.refine.seed, sh_degree=edited.sh_degree)
-    elif cfg.init == "none":
+    else:  # "none"
         new = edited.subset(torch.zeros(len(edited), dtype=torch.bool))
-    else:
-        raise InputError(f"unknown initialisation {cfg.init!r} (depth, naive, none)", "--init")
     t["init_s"] = time.perf_counter() - t0
 
     # 6. 3D inpainting, occluders back
@@ -231,7 +254,11 @@ def read_removal(removed_dir: str | Path, n: int) -> tuple[torch.Tensor, list[in
         index = np.load(index_path)
     except (ValueError, OSError) as e:
         raise InputError(f"unreadable removal output ({type(e).__name__})", removed_dir) from None
-    if index.ndim != 1 or (index.size and (index.min() < 0 or index.max() >= n)):
+    if index.ndim != 1 or not np.issubdtype(index.dtype, np.integer):
+        raise InputError(f"not a list of Gaussian indices ({index.dtype}, shape {index.shape})", index_path)
+    if not index.size:
+        raise InputError("the removal selected no Gaussian: nothing to inpaint", index_path)
+    if index.min() < 0 or index.max() >= n:
         raise InputError(f"removed indices do not fit a model of {n} Gaussians: removal made from another model?", index_path)
     mask = torch.zeros(n, dtype=torch.bool)
     mask[torch.from_numpy(index.astype(np.int64))] = True
@@ -242,8 +269,11 @@ def inpaint_from_removal(field_: IdentityField, removed_dir: str | Path, scene: 
     """The stage as ``inpaint360gs inpaint`` runs it: read the removal, inpaint, write ``out``."""
     cfg = cfg or InpaintConfig()
     t0 = time.perf_counter()
+    out = Path(out)
+    if out.is_dir() and any(out.iterdir()) and not overwrite:  # before any work (atomic_dir checks again at the end)
+        raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", out)
     mask, ids = read_removal(removed_dir, len(field_.gaussians))
-    final, record, views = inpaint_scene(field_, mask, ids, scene, cfg, progress=progress)
+    final, record, views = inpaint_scene(field_, mask, ids, scene, cfg, progress=progress, removal=removed_dir)
     record["seconds"]["total_s"] = round(time.perf_counter() - t0, 2)
     write_inpainting(final, field_.gaussians, record, views, scene, out, backend=cfg.backend, overwrite=overwrite)
     return record

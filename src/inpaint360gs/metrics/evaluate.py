@@ -39,7 +39,7 @@ from inpaint360gs.io.scene import Scene, View, load_scene
 from inpaint360gs.metrics.distribution import frechet_distance_features, kernel_inception_distance
 from inpaint360gs.metrics.image import psnr, ssim_index_map
 from inpaint360gs.metrics.inception import inception_features, load_fid_inception
-from inpaint360gs.metrics.lpips import Net, get_lpips_net, lpips_weights_info, reduce_maps, upsample_maps
+from inpaint360gs.metrics.lpips import MIN_SIDE, Net, get_lpips_net, lpips_weights_info, reduce_maps, upsample_maps
 from inpaint360gs.metrics.masked import (
     CONVENTIONS,
     EMPTY_ROI_REASON,
@@ -310,6 +310,12 @@ def evaluate_renders(
     views = scene.test_views
     if not views:
         raise InputError("scene has no test_ views to evaluate", scene_dir / "images")
+    for net in dict.fromkeys((*nets, "vgg")):  # VGG16 features for fd/kid in any case
+        small = next((v for v in views if min(v.camera.width, v.camera.height) < MIN_SIDE[net]), None)
+        if small is not None:
+            hint = " or leave out --nets alex" if net == "alex" else ""
+            raise InputError(f"test view {small.name} is {small.camera.width}x{small.camera.height}; LPIPS-{net} needs at least {MIN_SIDE[net]} pixels a side "
+                             f"(use a lower --resize{hint})", scene_dir / "images")  # fmt: skip
     paths = _match_renders(renders_dir, views)
     inception = inception_weights_path(inception_weights)  # fails early on a missing file
     names = [v.name for v in views]

@@ -37,6 +37,8 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.metrics.weights import flatten_arrays, load_numpy_pickle, lpips_weights_path
 
 Net = Literal["vgg", "alex"]
+# the smallest image side each network takes: AlexNet's 11/4 convolution and two 3/2 max-pools, VGG16's four 2/2 max-pools
+MIN_SIDE: dict[str, int] = {"alex": 31, "vgg": 16}
 
 # (out_channels, kernel, stride, padding) per convolution; "M" = max pool (kernel, stride)
 _ALEX = [
