@@ -201,6 +201,18 @@ def copied(fixture: str, src: str, dst: str):
     return make
 
 
+def no_object_free(fn=None, *extra: str):
+    """``build`` of the captures without without_objects/ (photos with the objects only: a scene without
+    ground truth, accepted), broken by ``fn(root) -> (what the error must name, ...)``."""
+
+    def make(c):
+        root, _ = c.broken("captures", lambda r: remove(r / "without_objects"))
+        named = fn(root)
+        return ["build", str(root), c.path("out"), *[a.format_map(_Names(c, root=root)) for a in extra], "--no-progress"], named
+
+    return make
+
+
 def emptied(folder: Path) -> Path:
     remove(folder).mkdir()
     return folder
@@ -261,7 +273,11 @@ CASES = [
     Case("build-captures-empty", D, lambda c: (["build", c.dir("empty"), c.path("out"), "--no-progress"], c.path("empty"))),
     Case("build-no-object-inclusive", D, build(lambda r: emptied(r / "with_objects"))),
     Case("build-no-object-free", D, build(lambda r: emptied(r / "without_objects"))),
-    Case("build-missing-second-folder", D, build(lambda r: remove(r / "without_objects"))),
+    # photos with the objects only (no without_objects/) are a scene without ground truth; still refused:
+    Case("build-no-object-free-one-photo", D, no_object_free(lambda r: [remove(p) for p in sorted((r / "with_objects").iterdir())[1:]] and str(r / "with_objects"))),
+    Case("build-no-object-free-duplicate-photo", D, no_object_free(lambda r: (str(r / "with_objects" / "IMG_001.png"), str(duplicate(r / "with_objects" / "IMG_001.png", r / "with_objects" / "IMG_009.png"))))),
+    Case("build-no-object-free-truncated-photo", D, no_object_free(lambda r: str(truncate(r / "with_objects" / "IMG_002.png")))),
+    Case("build-no-object-free-unseen-masks", D, no_object_free(lambda r: _mask(r.parent / "m" / "IMG_000.png", 32, 24) and "--unseen-masks", "--unseen-masks", "{tmp}/m")),
     Case("build-duplicate-photo", D, copied("captures", "with_objects/IMG_001.png", "with_objects/IMG_009.png")),
     Case("build-object-free-photo-in-training", D, copied("captures", "without_objects/IMG_100.png", "with_objects/IMG_050.png")),
     Case("build-training-photo-in-object-free", D, copied("captures", "with_objects/IMG_002.png", "without_objects/IMG_150.png")),

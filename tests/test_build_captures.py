@@ -69,18 +69,35 @@ def test_mixed_resolutions_name_the_odd_file(tmp_path):
     assert e.value.path == odd and "40x24 differs from 32x24" in str(e.value)
 
 
-def test_no_object_free_photos(tmp_path):
+def test_empty_object_free_folder_is_refused(tmp_path):
     root = tmp_path / "cap"
     for i in range(3):
         _img(root / "with_objects" / f"IMG_{i}.png", seed=i)
-    (root / "without_objects").mkdir()
-    with pytest.raises(InputError, match="no object-free photos"):
+    (root / "without_objects").mkdir()  # there, but empty: photos that were meant to be in it
+    with pytest.raises(InputError, match="no object-free photos") as e:
         collect_captures(root)
-    root1 = tmp_path / "one"  # one folder without any test_* photo
+    assert e.value.path == root / "without_objects" and "remove the empty folder" in str(e.value)
+
+
+def test_object_inclusive_photos_only_no_ground_truth(tmp_path):
+    """Photos with the object only (the method's real use): accepted, no ground truth."""
+    one = tmp_path / "one"  # one folder without any test_* photo
     for i in range(3):
-        _img(root1 / f"IMG_{i}.png", seed=i)
-    with pytest.raises(InputError, match="no object-free photos"):
-        collect_captures(root1)
+        _img(one / f"IMG_{i}.png", seed=i)
+    two = tmp_path / "two"  # with_objects/ alone
+    for i in range(3):
+        _img(two / "with_objects" / f"IMG_{i}.png", seed=i)
+    for root, layout in ((one, "one-folder"), (two, "two-folders")):
+        cs = collect_captures(root)
+        assert cs.layout == layout and not cs.has_ground_truth and not cs.object_free
+        assert [c.out_name for c in cs.object_inclusive] == ["IMG_0.png", "IMG_1.png", "IMG_2.png"]
+    _img(two / "with_objects" / "IMG_9.png", seed=1)  # the checks still apply: a duplicate photo
+    with pytest.raises(InputError, match="duplicate photo"):
+        collect_captures(two)
+    for p in sorted(one.iterdir())[1:]:
+        p.unlink()
+    with pytest.raises(InputError, match="fewer than 2 object-inclusive"):  # one photo is no capture
+        collect_captures(one)
 
 
 def test_duplicate_names(tmp_path):
@@ -120,13 +137,23 @@ def test_corrupt_image_is_an_error_or_a_reported_skip(tmp_path, kind):
     assert bad not in {c.source for c in cs.captures}
 
 
-def test_missing_second_folder(tmp_path):
+def test_missing_object_inclusive_folder(tmp_path):
     root = tmp_path / "cap"
     for i in range(3):
-        _img(root / "with_objects" / f"IMG_{i}.png", seed=i)
+        _img(root / "without_objects" / f"IMG_{i}.png", seed=i)
     with pytest.raises(InputError) as e:
         collect_captures(root)
-    assert e.value.path == root / "without_objects"
+    assert e.value.path == root / "with_objects"
+
+
+def test_unseen_masks_without_object_free_photos_refused_before_sfm(tmp_path, capsys):
+    root = _two_folders(tmp_path / "cap", n_free=0)  # with_objects/ only
+    masks = tmp_path / "masks"
+    masks.mkdir()
+    cv2.imwrite(str(masks / "IMG_000.png"), np.zeros((24, 32), np.uint8))
+    line = _cli_fails(["build", str(root), str(tmp_path / "out"), "--unseen-masks", str(masks), "--no-progress"], capsys)
+    assert "--unseen-masks" in line and "object-free" in line
+    assert not (tmp_path / "out").exists()
 
 
 @pytest.mark.parametrize("case", ["mixed", "no-free", "duplicate", "corrupt", "missing"])

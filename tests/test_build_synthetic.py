@@ -178,3 +178,40 @@ def test_points_observed_inside_given_unseen_masks_can_be_removed(built, tmp_pat
             if p2d.has_point3D():
                 x, y = int(p2d.xy[0]), int(p2d.xy[1])
                 assert not mask[y, x]
+
+
+def test_photos_with_the_object_only_build_a_scene_without_ground_truth(built, tmp_path, capsys):
+    """The method's real use: only photos with the object. build -> validate -> evaluate says no ground truth."""
+    from inpaint360gs.cli import main as method_main
+    from inpaint360gs.core.layout import NO_GROUND_TRUTH
+    from inpaint360gs.io.scene import load_scene
+
+    truth, cap, _, _ = built
+    own = tmp_path / "own"
+    (own / "with_objects").mkdir(parents=True)  # no without_objects/ at all
+    for p in sorted((cap / "with_objects").glob("IMG_0*.png")):
+        (own / "with_objects" / p.name).write_bytes(p.read_bytes())
+    out = tmp_path / "scene"
+    assert dataset_main(["build", str(own), str(out), "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    n_in = _counts(truth)[0] - _counts(truth)[1]
+    assert f"registered {n_in}/{n_in}" in text and "0 object-free" in text and "no ground truth" in text
+    assert not list((out / "images").glob("test_*")) and not (out / "unseen_mask").exists()
+    meta = json.loads((out / "scene.json").read_text())
+    assert meta["ground_truth"] is False and "object-inclusive photos only" in meta["ground_truth_reason"]
+    report = json.loads((out / "build_report.json").read_text())
+    assert report["output"]["num_test_images"] == 0 and report["output"]["ground_truth"] is False
+    score = score_build(out, truth)  # poses as good as with the object-free photos
+    assert score.poses.center_err_max_pct <= 1.0 and score.poses.rot_err_max_deg <= 0.5, score.poses
+
+    v = validate_scene(out)
+    assert v.ok, v.format()
+    assert dataset_main(["validate", str(out)]) == 0
+    scene = load_scene(out)
+    assert scene.test_views == [] and not scene.has_ground_truth and len(scene.train_views) > 0
+
+    renders = tmp_path / "renders"
+    renders.mkdir()
+    assert method_main(["evaluate", str(renders), str(out), str(tmp_path / "m.json")]) == 0
+    assert NO_GROUND_TRUTH in capsys.readouterr().out
+    assert json.loads((tmp_path / "m.json").read_text())["mean"]["psnr"] is None

@@ -150,7 +150,30 @@ def test_input_errors(scene, tmp_path):
     with pytest.raises(InputError, match="renders folder not found"):
         evaluate_renders(tmp_path / "nope", root)
 
+
+
+def test_scene_without_test_views_reports_no_ground_truth(tmp_path, capsys):
+    """Photos with the object only: nothing to score against; not an error (library and CLI)."""
+    from inpaint360gs.cli import main
+    from inpaint360gs.core.layout import NO_GROUND_TRUTH
+
     no_test = tmp_path / "no_test"
     simple_scene(no_test, n_train=4, n_test=0, width=W, height=H)
-    with pytest.raises(InputError, match="no test_ views"):
-        evaluate_renders(renders, no_test)
+    renders = tmp_path / "renders"
+    renders.mkdir()  # what the inpaint stage leaves in renders/test/ for such a scene
+    res = evaluate_renders(renders, no_test)
+    json.dumps(res, allow_nan=False)
+    assert NO_GROUND_TRUTH == "no ground truth: the scene has no object-free test_ views"
+    assert res["ground_truth"] is False and res["reason"] == NO_GROUND_TRUTH
+    assert res["num_views"] == 0 and res["views"] == [] and res["per_view"] == {}
+    assert list(res["mean"]) == metric_names(("vgg", "alex")) and set(res["mean"].values()) == {None}
+    assert set(res["null_reasons"]["mean"].values()) == {NO_GROUND_TRUTH}
+    assert set(res["scene_metrics"]) == {"fid", "fd_vgg16", "kid_vgg16", "amcr"} and set(res["scene_metrics"].values()) == {None}
+    assert set(res["null_reasons"]["scene_metrics"].values()) == {NO_GROUND_TRUTH}
+
+    out = tmp_path / "m.json"
+    assert main(["evaluate", str(renders), str(no_test), str(out)]) == 0
+    std = capsys.readouterr()
+    assert NO_GROUND_TRUTH in std.out and std.err == ""
+    saved = json.loads(out.read_text())
+    assert saved["ground_truth"] is False and saved["mean"]["psnr"] is None and saved["reason"] == NO_GROUND_TRUTH

@@ -151,3 +151,85 @@ def test_unseen_masks_optional_flag_and_json(good_scene, tmp_path, capsys):
 def test_missing_folder_fails_cleanly(tmp_path, capsys):
     assert dataset_main(["validate", str(tmp_path / "nope")]) == 2
     assert "folder not found" in capsys.readouterr().err
+
+
+# --- a scene without ground truth (object-inclusive photos only; docs/architecture.md, "Scene format") ---
+
+
+def _set_scene_json(s: Path, **entries) -> None:
+    import json
+
+    data = json.loads((s / "scene.json").read_text())
+    data.update(entries)
+    for k in [k for k, v in entries.items() if v is None]:
+        del data[k]
+    (s / "scene.json").write_text(json.dumps(data))
+
+
+@pytest.fixture(scope="module")
+def no_gt_scene(tmp_path_factory) -> Path:
+    """The box scene photographed with the box only: no test_ views, no unseen_mask/, scene.json says so."""
+    root = tmp_path_factory.mktemp("validate") / "no_gt"
+    rec = sb.write_box_scene(sb.box_scene(n_test=0), root)
+    remove_leaked_points(rec)
+    rec.write(root / "sparse" / "0")
+    _set_scene_json(root, ground_truth=False, ground_truth_reason="object-inclusive photos only")
+    return root
+
+
+def test_scene_without_ground_truth_passes_when_scene_json_says_so(no_gt_scene, capsys):
+    assert not (no_gt_scene / "unseen_mask").exists()
+    assert not list((no_gt_scene / "images").glob("test_*"))
+    report = validate_scene(no_gt_scene)
+    assert report.ok, report.format()
+    checks = {c.name: c for c in report.checks}
+    assert "0 test_ views" in checks["split"].detail and "ground_truth false" in checks["split"].detail
+    assert {"registration", "image files", "distinct images", "point leaks", "unseen masks"} <= set(checks)
+    assert dataset_main(["validate", str(no_gt_scene)]) == 0
+    assert "=> PASS" in capsys.readouterr().out
+
+
+def _no_gt_undeclared(s: Path) -> None:
+    _set_scene_json(s, ground_truth=None, ground_truth_reason=None)
+
+
+def _no_gt_not_bool(s: Path) -> None:
+    _set_scene_json(s, ground_truth="no")
+
+
+def _no_gt_stray_unseen_mask(s: Path) -> None:
+    (s / "unseen_mask").mkdir()
+    cv2.imwrite(str(s / "unseen_mask" / "IMG_001.png"), np.zeros((120, 160), np.uint8))
+
+
+def _no_gt_duplicate_photo(s: Path) -> None:
+    shutil.copyfile(s / "images" / "IMG_002.png", s / "images" / "IMG_005.png")
+
+
+# case -> (how to break the scene without ground truth, the checks that must then fail): every other rule still applies
+NO_GT_BREAKS = {
+    "no test_ views and scene.json silent": (_no_gt_undeclared, {"split"}),
+    "ground_truth not a boolean": (_no_gt_not_bool, {"scene.json", "split"}),
+    "unseen mask without a test_ view": (_no_gt_stray_unseen_mask, {"unseen masks"}),
+    "duplicate photo": (_no_gt_duplicate_photo, {"distinct images"}),
+    "unregistered image": (_break_unregistered, {"registration"}),
+    "distortion model": (_break_distortion, {"camera model"}),
+    "corrupt image": (_break_corrupt_image, {"image files"}),
+}
+
+
+@pytest.mark.parametrize("case", sorted(NO_GT_BREAKS))
+def test_scene_without_ground_truth_keeps_every_other_check(no_gt_scene, tmp_path, case):
+    s = _copy(no_gt_scene, tmp_path)
+    breaker, expected = NO_GT_BREAKS[case]
+    breaker(s)
+    report = validate_scene(s)
+    assert {c.name for c in report.failed()} == expected, report.format()
+
+
+def test_ground_truth_false_with_test_views_fails(good_scene, tmp_path):
+    s = _copy(good_scene, tmp_path)
+    _set_scene_json(s, ground_truth=False)
+    report = validate_scene(s)
+    assert {c.name for c in report.failed()} == {"split"}, report.format()
+    assert "yet test_ views exist" in report.failed()[0].detail

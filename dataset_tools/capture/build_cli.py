@@ -1,7 +1,8 @@
 """``inpaint360gs-dataset build CAPTURES OUT``: joint COLMAP of object-inclusive + object-free photos.
 
 CAPTURES is either two folders, ``with_objects/`` and ``without_objects/``, or one folder in which the
-object-free photos are named ``test_*``. See dataset_tools/capture/README.md.
+object-free photos are named ``test_*``. The object-free photos are optional: without them the scene
+has no ground truth (no test_ views; scene.json says so). See dataset_tools/capture/README.md.
 
 Each option's ``dest`` is the name of the ``BuildConfig``, ``CaptureConfig`` or ``SfMConfig`` field it sets.
 """
@@ -18,7 +19,8 @@ from inpaint360gs.cli.common import check_apart, existing_dir, nonneg_int, numbe
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("captures", type=existing_dir, help="folder of photos (two sub-folders, or one folder with test_* names)")
+    p.add_argument("captures", type=existing_dir, help="folder of photos (with_objects/ [+ without_objects/], or one folder where object-free photos "
+                        "are named test_*); without object-free photos the scene has no ground truth")
     p.add_argument("out", type=output_dir, help="scene folder to write (Inpaint360GS layout)")
     p.add_argument("--matcher", choices=["exhaustive", "sequential", "auto"], default="auto",
                    help="pair selection: exhaustive for small sets, sequential (photos named in capture order) "
@@ -34,7 +36,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--downscale", type=positive_int, nargs="*", default=[], metavar="F",
                    help="also write images_F/ copies, e.g. --downscale 2 4 8")
     p.add_argument("--with-dir", default="with_objects", help="sub-folder of object-inclusive photos")
-    p.add_argument("--without-dir", default="without_objects", help="sub-folder of object-free photos")
+    p.add_argument("--without-dir", default="without_objects", help="sub-folder of object-free photos (optional)")
     p.add_argument("--test-prefix", default="test_", help="one-folder layout: prefix of object-free photos")
     p.add_argument("--unseen-masks", type=existing_dir, default=None,
                    help="folder of unseen masks (one per object-free photo, same stem, 255 = unseen); copied to unseen_mask/")

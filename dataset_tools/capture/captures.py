@@ -7,6 +7,11 @@ after physically removing them):
 * one folder holding all photos, where the object-free ones are named ``test_*`` (the prefix of the
   Inpaint360GS layout; configurable) and every other photo is object-inclusive.
 
+The object-free photos are optional: someone who wants an object gone from their own photos has
+only photos with it. Without ``without_objects/`` (or, in one folder, without ``test_*`` photos) the
+scene is built with no ground truth (no ``test_`` views, no unseen masks). An EMPTY
+``without_objects/`` is still an error: it looks like photos that were meant to be there.
+
 Every photo is decoded once here, so a corrupt or truncated file, a second resolution, two photos
 that would end up under the same name and two files holding the same picture (a copy, or a
 ground-truth photo among the training photos) are reported before any SfM work starts.
@@ -52,6 +57,11 @@ class CaptureSet:
     @property
     def object_free(self) -> list[Capture]:
         return [c for c in self.captures if c.object_free]
+
+    @property
+    def has_ground_truth(self) -> bool:
+        """Whether object-free (ground-truth) photos were given."""
+        return any(c.object_free for c in self.captures)
 
 
 @dataclass
@@ -127,10 +137,11 @@ def collect_captures(root: str | Path, config: CaptureConfig | None = None) -> C
     pairs: list[tuple[Path, bool]] = []
     if with_dir.is_dir() or without_dir.is_dir():
         layout = "two-folders"
+        if not with_dir.is_dir():
+            raise InputError("missing folder of object-inclusive photos (the two-folder layout needs it)", with_dir)
         for folder, free in ((with_dir, False), (without_dir, True)):
-            if not folder.is_dir():
-                kind = "object-free" if free else "object-inclusive"
-                raise InputError(f"missing folder of {kind} photos (two-folder layout needs both)", folder)
+            if not folder.is_dir():  # only without_dir/ can be missing: no ground truth
+                continue
             for p in _list_images(folder, skipped):
                 if not free and is_test_name(p.name, cfg.test_prefix):
                     raise InputError(
@@ -172,10 +183,10 @@ def collect_captures(root: str | Path, config: CaptureConfig | None = None) -> C
         seen[key] = c
 
     n_free = sum(c.object_free for c in captures)
-    if n_free == 0:
-        where = without_dir if layout == "two-folders" else root
+    if n_free == 0 and layout == "two-folders" and without_dir.is_dir():
         raise InputError(
-            f"no object-free photos found (expected in {cfg.without_dir}/ or named {cfg.test_prefix}*)", where
+            f"no object-free photos in {cfg.without_dir}/: add them, or remove the empty folder to build a "
+            "scene without ground truth (no test_ views)", without_dir
         )
     if len(captures) - n_free < 2:
         where = with_dir if layout == "two-folders" else root

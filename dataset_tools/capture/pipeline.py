@@ -5,6 +5,10 @@ Steps (paper supp. Sec. A): check the photos; joint SfM of all of them with one 
 undistort to PINHOLE when the camera model has distortion; remove leaked points (and optionally
 points seen inside given unseen masks); write images (object-free ones as ``test_*``), ``sparse/0``,
 downscaled copies, ``unseen_mask/`` when given, ``scene.json`` and ``build_report.json``.
+
+Without object-free photos (only photos with the object, the method's real use) the same steps
+build a scene with no ``test_`` views and no unseen masks; ``scene.json`` then says
+``"ground_truth": false`` with the reason, and evaluation reports that nothing can be scored.
 """
 
 from __future__ import annotations
@@ -23,6 +27,7 @@ from dataset_tools.capture.layout import copy_images, provenance, read_mask, wri
 from dataset_tools.capture.leaks import recolor_from_inclusive_views, remove_leaked_points, remove_points_in_masks
 from dataset_tools.capture.progress import StageProgress
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.layout import GROUND_TRUTH_KEY, GROUND_TRUTH_REASON_KEY
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.colmap import to_pinhole
 from inpaint360gs.io.images import find_mask, write_mask
@@ -86,6 +91,8 @@ class BuildReport:
             f"{o['width']}x{o['height']} PINHOLE{'(undistorted)' if o['undistorted'] else ''}; "
             f"downscaled {sorted(o['downscaled']) or 'none'}; unseen masks {o['unseen_masks']}"
         )
+        if not o.get("ground_truth", True):
+            lines.append(f"  no ground truth: {NO_OBJECT_FREE_PHOTOS}")
         lines.append(f"  time: {self.timings['total_s']:.1f} s")
         return "\n".join(lines)
 
@@ -108,6 +115,19 @@ def _load_unseen_masks(cset: CaptureSet, mask_dir: Path) -> dict[str, np.ndarray
     return masks
 
 
+NO_OBJECT_FREE_PHOTOS = (
+    "built from object-inclusive photos only (no object-free photos): no test_ views and no unseen masks, "
+    "so inpainting cannot be scored against ground truth"
+)
+
+
+def _ground_truth_entry(cset: CaptureSet) -> dict:
+    """``scene.json``'s record of whether the scene has object-free ground truth (``core.layout``)."""
+    if cset.has_ground_truth:
+        return {GROUND_TRUTH_KEY: True}
+    return {GROUND_TRUTH_KEY: False, GROUND_TRUTH_REASON_KEY: NO_OBJECT_FREE_PHOTOS}
+
+
 def _camera_dict(cam: pycolmap.Camera) -> dict:
     return {"model": cam.model_name, "width": cam.width, "height": cam.height, "params": [float(v) for v in cam.params]}
 
@@ -125,6 +145,8 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
     t_start = time.perf_counter()
     out = Path(out)
     cset = collect_captures(captures, cfg.captures)
+    if cfg.unseen_masks is not None and not cset.has_ground_truth:
+        raise InputError("unseen masks belong to object-free photos, and the captures hold none", "--unseen-masks")
     masks = _load_unseen_masks(cset, Path(cfg.unseen_masks)) if cfg.unseen_masks is not None else None
     if cfg.remove_unseen_points and masks is None:
         raise InputError("removing points inside unseen masks needs --unseen-masks", "--remove-unseen-points")
@@ -146,7 +168,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
         rec = sfm.reconstruction
         registered = {rec.image(i).name for i in rec.reg_image_ids()}
         reg_free = registered & free_names
-        if not reg_free:
+        if free_names and not reg_free:
             raise InputError(f"none of the {len(free_names)} object-free photos could be registered", captures)
         if len(registered - free_names) < 2:
             raise InputError("fewer than 2 object-inclusive photos could be registered", captures)
@@ -241,6 +263,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
                 "num_test_images": n_test,
                 "downscaled": downscaled,
                 "unseen_masks": len(masks) if masks is not None else 0,
+                "ground_truth": cset.has_ground_truth,
             },
             timings={**{k: round(v, 2) for k, v in sfm.timings.items()}, "total_s": time.perf_counter() - t_start},
             leaked_xyz=leak.removed_xyz,
@@ -252,6 +275,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
                 "name": cfg.scene_name or out.name,
                 "objects": [],
                 "removal_targets": [],
+                **_ground_truth_entry(cset),
                 "source": "captures",
                 "provenance": provenance(
                     "inpaint360gs-dataset build",

@@ -3,6 +3,10 @@ and say what is wrong.
 
 Reads the folder with pycolmap directly (no dependency on the method's scene loader). Every check
 yields PASS, WARN or FAIL with a one-line reason; the scene is valid when nothing FAILs.
+
+A scene without object-free ground truth (built from object-inclusive photos only) is valid when
+``scene.json`` says so (``"ground_truth": false``): it then has no ``test_`` views and no unseen
+masks, and every other check applies as usual. Without that statement a scene needs ``test_`` views.
 """
 
 from __future__ import annotations
@@ -17,7 +21,7 @@ from dataset_tools.capture.captures import decode_image, refuse_duplicates
 from dataset_tools.capture.layout import scaled_size
 from dataset_tools.capture.leaks import leaked_point_ids
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.layout import LLFFHOLD, MASK_SUFFIXES, assign_splits, is_image_name
+from inpaint360gs.core.layout import GROUND_TRUTH_KEY, LLFFHOLD, MASK_SUFFIXES, SCENE_JSON, assign_splits, is_image_name
 from inpaint360gs.io.colmap import PINHOLE_MODELS, read_model
 from inpaint360gs.io.images import find_mask, read_mask
 
@@ -106,6 +110,21 @@ def _check_masks(report: ValidationReport, name: str, folder: Path, stems: dict[
         report.add(name, "pass", f"{len(stems)} present, sized right")
 
 
+def _read_scene_json(path: Path) -> tuple[dict | None, str | None]:
+    """(the parsed object or None, why it is unusable or None); a missing file is (None, None)."""
+    if not path.is_file():
+        return None, None
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        return None, f"not valid JSON ({e})"
+    if not isinstance(data, dict):
+        return None, "is not a JSON object"
+    if GROUND_TRUTH_KEY in data and not isinstance(data[GROUND_TRUTH_KEY], bool):
+        return data, f"{GROUND_TRUTH_KEY!r} must be true or false, got {data[GROUND_TRUTH_KEY]!r}"
+    return data, None
+
+
 def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_images: bool = True) -> ValidationReport:
     """Check ``scene``; see the module docstring. Never raises for a bad folder, it reports it."""
     scene = Path(scene)
@@ -113,6 +132,9 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
     if not scene.is_dir():
         report.add("scene folder", "fail", "does not exist")
         return report
+
+    info, info_problem = _read_scene_json(scene / SCENE_JSON)
+    no_ground_truth = info is not None and info.get(GROUND_TRUTH_KEY) is False
 
     # --- images
     img_dir = scene / "images"
@@ -124,10 +146,18 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
     other = [f for f in files if split[f] != "test"]
     n_train, n_held = sum(s == "train" for s in split.values()), sum(s == "holdout" for s in split.values())
     if files:
-        ok_split = bool(test_files) and n_train > 0
-        report.add("split", "pass" if ok_split else "fail",
-                   f"{n_train} training + {n_held} held-out (llffhold={LLFFHOLD}) + {len(test_files)} test_ views"
-                   + ("" if ok_split else " (need >= 1 training and >= 1 test_ view)"))
+        counts = f"{n_train} training + {n_held} held-out (llffhold={LLFFHOLD}) + {len(test_files)} test_ views"
+        if n_train == 0:
+            report.add("split", "fail", counts + " (need >= 1 training view)")
+        elif no_ground_truth and test_files:
+            report.add("split", "fail", counts + f" (scene.json says {GROUND_TRUTH_KEY}: false, yet test_ views exist)")
+        elif no_ground_truth:
+            report.add("split", "pass", counts + f" (scene.json: {GROUND_TRUTH_KEY} false, nothing to evaluate against)")
+        elif not test_files:
+            report.add("split", "fail", counts + f" (need >= 1 test_ view, or {GROUND_TRUTH_KEY}: false in scene.json "
+                                                 "for a scene without object-free photos)")
+        else:
+            report.add("split", "pass", counts)
 
     # --- sparse model
     sparse = scene / "sparse" / "0"
@@ -221,7 +251,7 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
     # --- masks
     _check_masks(report, "unseen masks", scene / "unseen_mask",
                  {Path(f).stem: sizes[Path(f).stem] for f in test_files if Path(f).stem in sizes},
-                 required=require_unseen_masks, views={Path(f).stem for f in test_files}, kind="test_ ")
+                 required=require_unseen_masks and bool(test_files), views={Path(f).stem for f in test_files}, kind="test_ ")
     if (scene / "object_mask").is_dir():
         _check_masks(report, "object masks", scene / "object_mask",
                      {Path(f).stem: sizes[Path(f).stem] for f in other if Path(f).stem in sizes}, required=False,
@@ -236,14 +266,10 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
                else f"every one of {rec.num_points3D()} points has an object-inclusive observation")
 
     # --- scene.json
-    sj = scene / "scene.json"
-    if not sj.is_file():
+    if info_problem is not None:
+        report.add("scene.json", "fail", info_problem)
+    elif info is None:
         report.add("scene.json", "warn", "missing (objects, removal targets and provenance unknown)")
     else:
-        try:
-            data = json.loads(sj.read_text())
-            report.add("scene.json", "pass" if isinstance(data, dict) else "fail",
-                       "parses" if isinstance(data, dict) else "is not a JSON object")
-        except (json.JSONDecodeError, UnicodeDecodeError) as e:
-            report.add("scene.json", "fail", f"not valid JSON ({e})")
+        report.add("scene.json", "pass", "parses" + (f"; {GROUND_TRUTH_KEY}: false" if no_ground_truth else ""))
     return report

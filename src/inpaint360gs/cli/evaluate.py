@@ -2,7 +2,8 @@
 Tab. 1, supp. Eq. 1) for a folder of renders of a scene's test_ views — full image, ``masked_*``
 (the paper's evaluation code) and ``roi_*`` (strict) conventions, LPIPS VGG and AlexNet, FID with
 the Inception weights when configured, and the offline substitutes fd_vgg16 / kid_vgg16 (thin shell
-over :func:`inpaint360gs.metrics.evaluate.evaluate_renders`)."""
+over :func:`inpaint360gs.metrics.evaluate.evaluate_renders`). A scene without test_ views (no
+object-free photos) is scored as "no ground truth": exit 0, every metric null with that reason."""
 
 from __future__ import annotations
 
@@ -43,6 +44,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"output OUT lies inside the input {'SCENE' if args.scene.resolve() in out.parents else 'RENDERS'}, whose files this stage reads; choose another output", args.out)
     res = evaluate_renders(args.renders, args.scene, nets=nets, inception_weights=args.inception_weights)
     write_text(args.out, json.dumps(res, indent=1, allow_nan=False) + "\n")
+    if not res.get("ground_truth", True):
+        print(f"{res.get('scene', args.scene)}: {res['reason']}; every metric is null -> {args.out}")
+        return 0
     m = res["mean"]
 
     def f(k):

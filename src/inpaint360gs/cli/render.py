@@ -54,6 +54,9 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"{args.sh_degree} is above the SH degree {model.sh_degree} that {args.model} holds", "--sh-degree")
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False, unregistered="warn")
     views = scene.views if args.split == "all" else scene.split(args.split)
+    if not views and args.split == "test":
+        raise InputError("the scene has no test_ views (no object-free photos, no ground truth); nothing to render: "
+                         "use --split train, holdout or all", args.scene)
     if not views:
         raise InputError(f"the scene has no {args.split} views (llffhold={args.llffhold}); nothing to render", args.scene)
     bg = torch.ones(3) if args.white_background else torch.zeros(3)

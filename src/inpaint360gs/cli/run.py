@@ -1,7 +1,8 @@
 """``inpaint360gs run SCENE OUT [--click VIEW:X,Y ...] [--model PLY] [--until STAGE]``: the whole method
 on one scene folder for people without Snakemake (paper Alg. 1; thin shell over
 :class:`inpaint360gs.pipeline.run.Runner`). One sub-folder per stage under OUT; a stage whose inputs
-and settings did not change since the last run is skipped. Clicks default to ``scene.json``'s."""
+and settings did not change since the last run is skipped. Clicks default to ``scene.json``'s. A scene
+without test_ views (photos with the object only) runs the same; its result has no test_ renders."""
 
 from __future__ import annotations
 
@@ -59,4 +60,9 @@ def run(args: argparse.Namespace) -> int:
     for stage, what in runner.run(args.until):
         print(f"{stage:10s} {what}")
     print(f"{scene.name}: done up to {args.until} -> {args.out}")
+    if args.until == "inpaint" and not scene.test_views:
+        from inpaint360gs.core.layout import NO_GROUND_TRUTH, RunLayout
+
+        inpainted = RunLayout(args.out).inpainted
+        print(f"{NO_GROUND_TRUTH} (nothing to evaluate): see {inpainted / 'grid.png'} and {inpainted / 'trajectory.gif'}")
     return 0

@@ -36,6 +36,13 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 MASK_SUFFIXES = (".png", ".PNG", ".jpg", ".jpeg", ".JPG", ".tif", ".tiff")
 LLFFHOLD = 8
 
+# ``scene.json`` key saying whether the scene has object-free ground truth (``test_`` views, unseen
+# masks). ``false`` for a scene built from object-inclusive photos only (the method's real use: the
+# object is still there); absent means the scene is expected to have test_ views.
+GROUND_TRUTH_KEY = "ground_truth"
+GROUND_TRUTH_REASON_KEY = "ground_truth_reason"
+NO_GROUND_TRUTH = "no ground truth: the scene has no object-free test_ views"
+
 Split = Literal["train", "holdout", "test"]
 
 

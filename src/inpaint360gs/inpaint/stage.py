@@ -10,7 +10,9 @@ Alg. 1 second half).
 6. 3D inpainting with hybrid supervision (:mod:`.refine`; ablation e: mask-only), then the
    occluders are put back.
 7. What people look at: renders at the ``test_`` cameras (cameras only; their pixels are never
-   read), a before/after grid, a GIF along the virtual trajectory.
+   read), a before/after grid, a GIF along the virtual trajectory. A scene without ``test_`` views
+   (photos with the object only, no ground truth) gets an empty ``renders/test/`` and a grid over
+   views spread along the inpainting cameras (virtual or training) instead.
 """
 
 from __future__ import annotations
@@ -194,6 +196,16 @@ def inpaint_scene(
     return final, record, views
 
 
+GRID_COLUMNS = 4  # views in grid.png
+
+
+def _spread(n: int, k: int) -> list[int]:
+    """``min(n, k)`` indices spread evenly over ``range(n)``, first and last included."""
+    if n <= k:
+        return list(range(n))
+    return [round(i * (n - 1) / (k - 1)) for i in range(k)]
+
+
 @torch.no_grad()
 def _grid(before: list[np.ndarray], after: list[np.ndarray]) -> np.ndarray:
     """Rows: before (top) and after (bottom); columns: views."""
@@ -213,7 +225,9 @@ def write_inpainting(
     overwrite: bool = False,
 ) -> None:
     """``out``: point_cloud.ply, virtual_cameras.json, views/ (2D inpainting results), renders/test/
-    (the final scene at the test_ cameras), grid.png (before/after), trajectory.gif, inpaint.json."""
+    (the final scene at the test_ cameras; empty when the scene has none), grid.png (before/after at
+    the first test_ cameras, or without test_ views at cameras spread along ``views``),
+    trajectory.gif, inpaint.json (``grid`` names the grid's cameras)."""
     from PIL import Image
 
     out = Path(out)
@@ -231,12 +245,21 @@ def write_inpainting(
             imgs[0].save(tmp / "trajectory.gif", save_all=True, append_images=imgs[1:], duration=80, loop=0)
         before, after = [], []
         renders = tmp / "renders" / "test"
+        renders.mkdir(parents=True)  # stays empty without test_ views (no ground truth)
         for v in test_views:
             a = render(final, v.camera, backend=backend).color.clamp(0, 1)
             write_image(renders / f"{v.stem}.png", a)
-            if len(before) < 4:
+            if len(before) < GRID_COLUMNS:
                 before.append(render(original, v.camera, backend=backend).color.clamp(0, 1).numpy())
                 after.append(a.numpy())
+        grid = {"cameras": "test", "views": [v.name for v in test_views[:GRID_COLUMNS]]}
+        if not test_views:  # no ground truth: the cameras the inpainting used (virtual or training)
+            picked = _spread(len(views), GRID_COLUMNS)
+            for i in picked:
+                before.append(render(original, views[i].camera, backend=backend).color.clamp(0, 1).numpy())
+                after.append(frames[i])
+            grid = {"cameras": record.get("views", "inpainting"), "views": [views[i].camera.name for i in picked]}
+        record["grid"] = grid
         if before:
             write_image(tmp / "grid.png", _grid(before, after))
         (tmp / "inpaint.json").write_text(json.dumps(record, indent=1, default=float) + "\n")

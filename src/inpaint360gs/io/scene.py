@@ -90,6 +90,13 @@ class Scene:
         """Object-free evaluation views: cameras only, unless pixels are asked for explicitly."""
         return self.split("test")
 
+    @property
+    def has_ground_truth(self) -> bool:
+        """Whether the scene has object-free ``test_`` views to score inpainting against. A scene
+        built from object-inclusive photos only has none (``scene.json``: ``"ground_truth": false``);
+        every method stage works without them (docs/architecture.md, "Scene format")."""
+        return bool(self.test_views) and self.info.get(layout.GROUND_TRUTH_KEY) is not False
+
     def view(self, name: str) -> View:
         for v in self.views:
             if v.name == name or v.stem == name:

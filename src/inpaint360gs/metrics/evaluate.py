@@ -19,8 +19,11 @@ It returns a JSON-ready dict (no NaN or inf anywhere; ``json.dumps(..., allow_na
   (paper supp. Eq. 1, over views with a mask file); definitions in ``definitions``;
 - ``weights``: path and sha256 of every weights file used.
 
-Inputs that make the evaluation meaningless raise ``InputError`` naming the file: a missing
-render, a render that matches no test view, a render of the wrong size, a scene without test views.
+A scene without ``test_`` views (built from object-inclusive photos only: there is no object-free
+ground truth) is not an error: the result has the same keys, ``"ground_truth": false``, every
+metric ``null`` and the reason :data:`~inpaint360gs.core.layout.NO_GROUND_TRUTH` (renders are not
+read). Inputs that make the evaluation meaningless raise ``InputError`` naming the file: a missing
+render, a render that matches no test view, a render of the wrong size.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from pathlib import Path
 import torch
 
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.layout import IMAGE_SUFFIXES
+from inpaint360gs.core.layout import IMAGE_SUFFIXES, NO_GROUND_TRUTH
 from inpaint360gs.io.images import read_image, to_float
 from inpaint360gs.io.scene import Scene, View, load_scene
 from inpaint360gs.metrics.distribution import frechet_distance_features, kernel_inception_distance
@@ -287,6 +290,29 @@ def _weights_info(nets: tuple, inception: Path | None) -> dict:
     return weights
 
 
+def _no_ground_truth(scene: Scene, renders_dir: Path, nets: tuple) -> dict:
+    """The result for a scene without test_ views: every metric null with the reason."""
+    names = metric_names(nets)
+    scene_keys = ("fid", "fd_vgg16", "kid_vgg16", "amcr")
+    return {
+        "scene": str(scene.root),
+        "renders_dir": str(renders_dir),
+        "ground_truth": False,
+        "reason": NO_GROUND_TRUTH,
+        "num_views": 0,
+        "views": [],
+        "conventions": dict(CONVENTIONS),
+        "definitions": dict(DEFINITIONS),
+        "mean": dict.fromkeys(names),
+        "num_views_mean": dict.fromkeys((*names, "amcr"), 0),
+        "per_view": {},
+        "scene_metrics": dict.fromkeys(scene_keys),
+        "null_reasons": {"per_view": {}, "mean": dict.fromkeys(names, NO_GROUND_TRUTH),
+                         "scene_metrics": dict.fromkeys(scene_keys, NO_GROUND_TRUTH)},
+        "weights": {},
+    }
+
+
 def evaluate_renders(
     renders_dir: str | Path,
     scene_dir: str | Path,
@@ -309,7 +335,7 @@ def evaluate_renders(
     scene: Scene = load_scene(scene_dir, load_masks=["unseen_mask"])
     views = scene.test_views
     if not views:
-        raise InputError("scene has no test_ views to evaluate", scene_dir / "images")
+        return _no_ground_truth(scene, renders_dir, nets)
     for net in dict.fromkeys((*nets, "vgg")):  # VGG16 features for fd/kid in any case
         small = next((v for v in views if min(v.camera.width, v.camera.height) < MIN_SIDE[net]), None)
         if small is not None:
@@ -340,6 +366,7 @@ def evaluate_renders(
     return {
         "scene": str(scene_dir),
         "renders_dir": str(renders_dir),
+        "ground_truth": True,
         "num_views": len(names),
         "views": names,
         "conventions": dict(CONVENTIONS),
