@@ -23,12 +23,34 @@ def test_dry_run_with_typed_command_line_values(tmp_path):
                  "train={iterations: 1000, schedule_scale: auto, max_gaussians: 0, backend: auto, extra_args: ''}")
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
-    # two generated scenes and their COLMAP rebuilds, one training run, the table
-    for rule, n in [("synth_scene", 2), ("colmap_scene", 2), ("train_3dgs", 1), ("table_3dgs", 1)]:
+    # two generated scenes and their COLMAP rebuilds, 3DGS on each, the reconstruction table; per scene
+    # one segmentation, two associations (KOM, and the tracker of ablation a) each with its own
+    # distillation and removal, seven inpaintings (every method but removal only), one render of the
+    # removal, eight evaluations and records; one set of paper tables
+    counts = [("synth_scene", 2), ("colmap_scene", 2), ("train_3dgs", 2), ("table_3dgs", 1), ("segment", 2), ("associate", 4),
+              ("distill", 4), ("remove", 4), ("render_removed", 2), ("inpaint", 14), ("evaluate", 16), ("record", 16), ("paper_tables", 1)]
+    for rule, n in counts:
         assert any(line.split()[:2] == [rule, str(n)] for line in out.splitlines()), (rule, out[-3000:])
 
 
-@pytest.mark.parametrize("bad,named", [("reduced=maybe", "reduced"), ("poses=guess", "poses"), ("train_scenes=[nosuchscene]", "nosuchscene")])
+def test_scene_folders_and_method_subsets(tmp_path):
+    folder = tmp_path / "captures" / "myscene"
+    folder.mkdir(parents=True)
+    (folder / "scene.json").write_text("{}")
+    p = _dry_run(tmp_path, f"scenes=[cone,{folder}]", "train_scenes=[]", "methods=[full,removal_only]", "segmenters=[geometric,oracle]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    # the folder is used as it is (no synth job for it); oracle runs on the synthetic scene only
+    for rule, n in [("synth_scene", 1), ("train_3dgs", 2), ("segment", 3), ("inpaint", 3), ("evaluate", 6), ("record", 6)]:
+        assert any(line.split()[:2] == [rule, str(n)] for line in out.splitlines()), (rule, out[-3000:])
+    assert f"{folder}/scene.json" in out or "myscene" in out
+
+
+@pytest.mark.parametrize(
+    "bad,named",
+    [("reduced=maybe", "reduced"), ("poses=guess", "poses"), ("train_scenes=[nosuchscene]", "nosuchscene"), ("methods=[magic]", "magic"),
+     ("scenes=[./no/such/folder]", "no/such/folder"), ("segmenters=[]", "segmenters")],
+)  # fmt: skip
 def test_bad_config_values_are_refused(tmp_path, bad, named):
     p = _dry_run(tmp_path, bad)
     assert p.returncode != 0
