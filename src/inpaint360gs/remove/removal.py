@@ -64,7 +64,9 @@ class Click:
         try:
             view, xy = text.rsplit(":", 1)
             x, y = (int(round(float(s))) for s in xy.split(","))
-        except ValueError:
+            if not view.strip():
+                raise ValueError("no view")
+        except (ValueError, OverflowError):  # OverflowError: an infinite coordinate
             raise InputError(f"click {text!r} is not VIEW:X,Y (e.g. IMG_0003.png:120,88)", "--click") from None
         return Click(view, x, y)
 
