@@ -91,7 +91,15 @@ class IdentityField:
         """Read a distillation output folder (``point_cloud.ply`` + ``classifier.json``)."""
         folder = Path(folder)
         classifier, ids = read_classifier(folder / CLASSIFIER_JSON)
-        return IdentityField(read_ply(folder / MODEL_PLY, device=device), classifier.to(device), ids)
+        g = read_ply(folder / MODEL_PLY, device=device)
+        if g.features is None:
+            raise InputError("the model has no identity features (obj_* properties): not a distillation output", folder / MODEL_PLY)
+        if g.features.shape[1] != classifier.in_features:
+            raise InputError(
+                f"{MODEL_PLY} has {g.features.shape[1]} identity feature channels but the classifier expects {classifier.in_features}: files of two runs?",
+                folder / CLASSIFIER_JSON,
+            )
+        return IdentityField(g, classifier.to(device), ids)
 
 
 def classifier_dict(classifier: torch.nn.Linear, object_ids: Sequence[int]) -> dict:
