@@ -116,7 +116,7 @@ class MapField:
     def __init__(self, id_map: np.ndarray):
         self.id_map = torch.from_numpy(id_map)
 
-    def render_ids(self, camera):
+    def render_ids(self, camera, **kw):
         return self.id_map, None
 
 
@@ -148,6 +148,25 @@ def test_click_on_the_background_is_refused(blobs):
     for y, x in (floor, empty):
         with pytest.raises(InputError, match="on the background"):
             resolve_clicks(field, scene, [Click(v.name, int(x), int(y))])
+
+
+def test_nothing_rendered_is_background_whatever_the_classifier_says_of_it(blobs):
+    """Where no Gaussian is rendered the feature is zero and Phi answers with its bias alone; a bias
+    favouring an object must not turn empty space into that object."""
+    scene, model, labels, field = blobs
+    biased = labelled_field(model, labels, IDS)
+    with torch.no_grad():
+        biased.classifier.bias.copy_(torch.tensor([0.0, 3.0, 0.0]))  # object 3 where features are ~0
+    v = scene.train_views[2]
+    alpha = render(model, v.camera).alpha.detach()
+    ids, _ = biased.render_ids(v.camera)
+    assert (ids[alpha < 1e-3] == 3).all()  # the raw id map
+    assert (biased.render_ids(v.camera, min_alpha=0.5)[0][alpha < 0.5] == 0).all()
+    y, x = (int(i) for i in (alpha < 1e-3).nonzero()[0])
+    with pytest.raises(InputError, match="on the background"):
+        resolve_clicks(biased, scene, [Click(v.name, x, y)])
+    x, y = centre_pixel(v.camera, BLOB_CENTRES[7])
+    assert resolve_clicks(biased, scene, [Click(v.name, x, y)]) == [7]
 
 
 def test_click_on_an_unknown_or_test_view_is_refused(blobs):
@@ -330,6 +349,31 @@ def test_a_removed_gaussian_hidden_behind_a_kept_one_leaves_nothing_to_fill(wall
     removed = torch.zeros(len(m), dtype=torch.bool)
     removed[-2] = True  # the front one removed instead
     assert fill_masks(m, removed, [view])[view.name][cam.height // 2, cam.width // 2]
+
+
+# --- loading a distillation output ------------------------------------------------------------------
+
+
+def test_load_field_checks_the_folder_against_the_scene(blobs, tmp_path):
+    from object_fields import write_field
+
+    from inpaint360gs.remove.removal import load_field
+
+    scene, _, _, field = blobs
+    folder = write_field(tmp_path / "d", field, scene)
+    got = load_field(folder, scene)
+    assert got.object_ids == IDS and torch.equal(got.gaussians.features, field.gaussians.features)
+    rep = json.loads((folder / "distill.json").read_text())
+    (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "scene_content_sha256": "0" * 64}}))
+    with pytest.raises(InputError, match="distilled from other scene content"):
+        load_field(folder, scene)
+    (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "scene_content_sha256": "0" * 64, "resize": 2}}))
+    load_field(folder, scene)  # another resolution's hash: not comparable, not refused
+    (folder / "distill.json").write_text(json.dumps({**rep, "num_gaussians": 5}))
+    with pytest.raises(InputError, match=f"holds {len(field.gaussians)} Gaussians but distill.json records 5"):
+        load_field(folder, scene)
+    (folder / "distill.json").unlink()  # a folder without its report: loaded as it is
+    assert len(load_field(folder, scene).gaussians) == len(field.gaussians)
 
 
 # --- the stage --------------------------------------------------------------------------------------

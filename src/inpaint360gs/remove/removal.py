@@ -2,8 +2,9 @@
 first paragraph; supp. B "Object Removal", supp. Eq. 1 AMCR).
 
 Selection: a click (a view and a pixel) is resolved through the id map the distilled field renders
-for that view (argmax of the classifier on the rendered identity features); an id may also be given
-directly. A click on the background, outside the image or on an unknown view is refused.
+for that view (argmax of the classifier on the rendered identity features; background where the
+rendered alpha is below 0.5); an id may also be given directly. A click on the background, outside
+the image or on an unknown view is refused.
 
 Removal of a selected object (the authors' public code; Gaussian Grouping uses the same two steps):
 
@@ -120,7 +121,7 @@ def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> 
     """The object id under each click, read off the id map the field renders for the click's view."""
     ids = []
     for c, view in zip(clicks, check_clicks(scene, clicks)):
-        id_map, _ = field_.render_ids(view.camera)
+        id_map, _ = field_.render_ids(view.camera, min_alpha=0.5)  # less than half covered: nothing there
         oid = int(id_map[c.y, c.x])
         if oid == 0:
             raise InputError(f"click {c} is on the background (no object there in the rendered id map)", "--click")
