@@ -268,6 +268,8 @@ BAD_ASSOCIATE_OPTIONS = {
     "patch-zero": ("--patch", "0"),
     "min-segment-pixels-negative": ("--min-segment-pixels", "-1"),
     "resize-zero": ("--resize", "0"),
+    "llffhold-negative": ("--llffhold", "-8"),
+    "other-llffhold-than-segment": (("--llffhold", "0"), "IMG_000.png"),  # IMG_000 trains now: no segments of it
 }
 
 ASSOCIATE = [
@@ -493,3 +495,13 @@ def test_good_inputs_go_through(bscene, distilled, pixels, tmp_path, capsys):
     code, out, err = run_cli(T, ["remove", str(bscene), str(distilled), str(tmp_path / "r"), "--id", "2", "--overwrite", "--threads", "2"], capsys)
     assert code == 0, err
     assert json.loads((tmp_path / "r" / "removal.json").read_text())["objects"] == [2]
+
+
+def test_associate_follows_the_segment_stage_hold_out(bscene, bmodel, tmp_path, capsys):
+    """``--llffhold`` as given to ``segment``: every view trains with 0, and association finds its segments."""
+    seg, out = tmp_path / "seg", tmp_path / "assoc"
+    code, _, err = run_cli(T, ["segment", str(bscene), str(bmodel), str(seg), "--llffhold", "0", "--no-progress", "--threads", "2"], capsys)
+    assert code == 0, err
+    code, _, err = run_cli(T, ["associate", str(bscene), str(bmodel), str(seg), str(out), "--llffhold", "0"], capsys)
+    assert code == 0, err
+    assert (out / "object_mask" / "IMG_000.png").is_file()
