@@ -183,6 +183,17 @@ def model_in_run(c) -> str:
     return str(c.copy("bmodel", "run/point_cloud.ply"))
 
 
+def with_scene_json(data):
+    """A copy of the scene with this scene.json."""
+
+    def make(c):
+        root = c.copy("bscene")
+        put(root / "scene.json", data if isinstance(data, str) else json.dumps(data))
+        return root
+
+    return make
+
+
 # --- segment -----------------------------------------------------------------------------------------
 
 
@@ -401,6 +412,10 @@ REMOVE = [
     Case("remove-click-negative", T, rm("--click", f"{VIEW}:-1,3", named="outside")),
     Case("remove-click-unknown-view", T, rm("--click", "IMG_999.png:3,3", named="IMG_999.png")),
     Case("remove-click-on-a-test-view", T, rm("--click", "test_000.png:3,3", named="test_000.png")),
+    Case("remove-scene-json-click-outside", T, lambda c: (["remove", str(with_scene_json({"clicks": [{"view": VIEW, "x": 3, "y": 99}]})(c)), c.fx("distilled"),
+                                                           c.path("out")], ("scene.json", "outside"))),  # fmt: skip
+    Case("remove-scene-json-clicks-malformed", T, lambda c: (["remove", str(with_scene_json({"clicks": "IMG_001.png:3,4"})(c)), c.fx("distilled"), c.path("out")],
+                                                              "scene.json")),  # fmt: skip
     Case("remove-scene-missing", T, lambda c: (["remove", c.path("nope"), c.fx("distilled"), c.path("out"), "--id", "1"], c.path("nope"))),
     Case("remove-distill-missing", T, lambda c: (["remove", c.fx("bscene"), c.path("nope"), c.path("out"), "--id", "1"], c.path("nope"))),
     Case("remove-no-classifier", T, rm("--id", "1", dist=dist_broken(lambda r: remove(r / "classifier.json")))),
@@ -432,15 +447,6 @@ def rn(*extra: str, named, scene=None, out=None):
         o = out(c) if out else c.path("out")
         args = [a(c) if callable(a) else a for a in extra]
         return ["run", str(s), str(o), *RUN_FAST, *args], named(c) if callable(named) else named
-
-    return make
-
-
-def with_scene_json(data):
-    def make(c):
-        root = c.copy("bscene")
-        put(root / "scene.json", data if isinstance(data, str) else json.dumps(data))
-        return root
 
     return make
 
@@ -495,6 +501,17 @@ def test_good_inputs_go_through(bscene, distilled, pixels, tmp_path, capsys):
     code, out, err = run_cli(T, ["remove", str(bscene), str(distilled), str(tmp_path / "r"), "--id", "2", "--overwrite", "--threads", "2"], capsys)
     assert code == 0, err
     assert json.loads((tmp_path / "r" / "removal.json").read_text())["objects"] == [2]
+
+
+def test_remove_takes_the_clicks_scene_json_names(bscene, distilled, pixels, tmp_path, capsys):
+    root = shutil.copytree(bscene, tmp_path / "scene")
+    x, y = pixels["object"]
+    (root / "scene.json").write_text(json.dumps({"clicks": [{"object": 1, "view": VIEW, "x": x, "y": y}]}))
+    # distill.json's hash is of the scene's content, not of its name or scene.json: the copy matches
+    code, _, err = run_cli(T, ["remove", str(root), str(distilled), str(tmp_path / "r"), "--threads", "2"], capsys)
+    assert code == 0, err
+    rec = json.loads((tmp_path / "r" / "removal.json").read_text())
+    assert rec["objects"] == [1] and rec["clicks"] == [f"{VIEW}:{x},{y}"]
 
 
 def test_associate_follows_the_segment_stage_hold_out(bscene, bmodel, tmp_path, capsys):
