@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_harness import restore_threads  # noqa: F401  (the CLI run sets torch's thread count)
 from scene_builder import blobs_model, blobs_scene, write_png
 
 from inpaint360gs.cli import main
