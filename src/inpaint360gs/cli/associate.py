@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import existing_dir, existing_file, fraction, nonneg_int, output_dir, positive_int
+from inpaint360gs.cli.common import check_apart, existing_dir, existing_file, fraction, nonneg_int, output_dir, positive_int
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,6 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--patch", type=positive_int, default=d.patch, help=f"patch size in pixels (default {d.patch})")
     parser.add_argument("--min-segment-pixels", type=nonneg_int, default=d.min_segment_pixels)
     parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor of the scene")
+    parser.add_argument("--llffhold", type=nonneg_int, default=8, help="every N-th non-test view is held out (default 8, as in segment)")
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
 
 
@@ -32,12 +33,14 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.segment.associate import AssociationConfig, associate_stage
 
+    check_apart({"OUT": args.out}, {"SCENE": args.scene, "MODEL": args.model, "SEGMENTS": args.segments})  # --overwrite replaces OUT as a whole
     cfg = AssociationConfig(
         method=args.method, variant=args.variant, sigma=args.sigma, keep_near=args.keep_near,
         patch=args.patch, min_segment_pixels=args.min_segment_pixels,
     ).resolved()  # fmt: skip
-    scene = load_scene(args.scene, resize=args.resize, load_masks=False)
+    scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     model = read_ply(args.model)
-    res = associate_stage(scene, model, args.segments, args.out, cfg, overwrite=args.overwrite, meta={"scene": str(scene.root), "model": str(args.model)})
+    res = associate_stage(scene, model, args.segments, args.out, cfg, overwrite=args.overwrite, model_path=args.model,
+                          meta={"scene": str(scene.root), "model": str(args.model)})  # fmt: skip
     print(f"{scene.name}: {len(res.objects)} object(s) over {len(res.masks)} training views ({cfg.method}) -> {args.out}")
     return 0

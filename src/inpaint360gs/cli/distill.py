@@ -13,6 +13,7 @@ import argparse
 from inpaint360gs.cli.common import (
     add_backend_argument,
     add_threads_argument,
+    check_apart,
     existing_dir,
     existing_file,
     nonneg_float,
@@ -75,6 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.scene import load_scene
 
     set_threads(args.threads)
+    check_apart({"OUT": args.out}, {"SCENE": args.scene, "MODEL": args.model, "ASSOC": args.assoc})  # --overwrite replaces OUT as a whole
     cfg = config_from_args(args)
     cfg.validate()
     objects = args.assoc / "objects.json"

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, existing_dir, fraction, nonneg_int, output_dir, positive_int, set_threads
+from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, check_apart, existing_dir, fraction, nonneg_int, output_dir, positive_int, set_threads
 
 
 def add_click_arguments(parser: argparse.ArgumentParser) -> None:
@@ -32,22 +32,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from inpaint360gs.distill.field import IdentityField
+    from inpaint360gs.io.atomic import check_output_dir
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.remove.removal import Click, RemovalConfig, removal_stage
+    from inpaint360gs.remove.removal import Click, RemovalConfig, check_clicks, load_field, removal_stage
 
     set_threads(args.threads)
+    check_apart({"OUT": args.out}, {"SCENE": args.scene, "DISTILL": args.distill})  # --overwrite replaces OUT as a whole
+    check_output_dir(args.out, args.overwrite)
     clicks = [Click.parse(c) for c in args.click]
     cfg = RemovalConfig(threshold=args.threshold, hull=not args.no_hull)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
+    where = "--click"
     if not clicks and not args.id:  # as `inpaint360gs run`: the clicks scene.json names
         from inpaint360gs.core.errors import InputError
         from inpaint360gs.pipeline.run import scene_clicks
 
-        clicks = scene_clicks(scene)
+        clicks, where = scene_clicks(scene), scene.root / "scene.json"
         if not clicks:
             raise InputError("nothing selected: give --click VIEW:X,Y or --id N (scene.json names no clicks)", scene.root / "scene.json")
-    field = IdentityField.load(args.distill)
+    check_clicks(scene, clicks, where)
+    field = load_field(args.distill, scene)
     info = removal_stage(field, scene, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,
                          meta={"scene": str(scene.root), "distill": str(args.distill)})  # fmt: skip
     print(f"{scene.name}: removed object(s) {info['objects']} ({info['removed_gaussians']} Gaussians); AMCR {info['amcr_percent']:.2f}% -> {args.out}")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
+from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, check_apart, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,6 +45,8 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.segment.associate import AssociationConfig
 
     set_threads(args.threads)
+    check_apart({"OUT": args.out}, {"SCENE": args.scene, "--model": args.model}, replaced=False)  # stages replace their sub-folders only
+    clicks = [Click.parse(c) for c in args.click]
     scene = load_scene(args.scene, resize=args.resize, load_masks=False)
     train = TrainConfig(
         iterations=args.iterations, seed=args.seed, backend=args.backend, schedule_scale=args.iterations / ORIGINAL_ITERATIONS,
@@ -55,7 +57,6 @@ def run(args: argparse.Namespace) -> int:
         distill=DistillConfig(iterations=args.distill_iterations, seed=args.seed, backend=args.backend),
         inpaint=inpaint_config(args, args.seed, args.backend), seed=args.seed, backend=args.backend,
     )  # fmt: skip
-    clicks = [Click.parse(c) for c in args.click]
     runner = Runner(scene, args.out, cfg, model=args.model, clicks=clicks, ids=args.id, progress=not args.no_progress)
     for stage, what in runner.run(args.until):
         print(f"{stage:10s} {what}")

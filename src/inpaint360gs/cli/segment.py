@@ -15,6 +15,7 @@ import argparse
 from inpaint360gs.cli.common import (
     add_backend_argument,
     add_threads_argument,
+    check_apart,
     existing_dir,
     existing_file,
     fraction,
@@ -94,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.segment.stage import segment_scene
 
     set_threads(args.threads)
+    check_apart({"OUT": args.out}, {"SCENE": args.scene, "MODEL": args.model})  # --overwrite replaces OUT as a whole
     segmenter = make_segmenter(args)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False, unregistered="warn" if args.allow_unregistered else "error")
     model = None

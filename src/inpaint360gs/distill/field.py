@@ -69,12 +69,17 @@ class IdentityField:
         return self._id_lut(features.device)[probs.argmax(-1)], probs
 
     @torch.no_grad()
-    def render_ids(self, camera: Camera, *, backend: str = "auto") -> tuple[torch.Tensor, torch.Tensor]:
-        """(object id map (H, W) long, class probabilities (H, W, Q)) for any camera, through the ordinary rasterizer."""
+    def render_ids(self, camera: Camera, *, backend: str = "auto", min_alpha: float = 0.0) -> tuple[torch.Tensor, torch.Tensor]:
+        """(object id map (H, W) long, class probabilities (H, W, Q)) for any camera, through the ordinary
+        rasterizer. Pixels whose rendered alpha is below ``min_alpha`` get id 0 (nothing is there: the
+        classifier's answer to a zero feature is its bias alone)."""
         from inpaint360gs.render.api import render
 
         out = render(self.gaussians, camera, sh_degree=0, with_features=True, backend=backend)
-        return self.classify(out.features)
+        ids, probs = self.classify(out.features)
+        if min_alpha > 0:
+            ids = torch.where(out.alpha.reshape(ids.shape) < min_alpha, torch.zeros_like(ids), ids)
+        return ids, probs
 
     @torch.no_grad()
     def gaussian_probs(self) -> torch.Tensor:
@@ -91,7 +96,15 @@ class IdentityField:
         """Read a distillation output folder (``point_cloud.ply`` + ``classifier.json``)."""
         folder = Path(folder)
         classifier, ids = read_classifier(folder / CLASSIFIER_JSON)
-        return IdentityField(read_ply(folder / MODEL_PLY, device=device), classifier.to(device), ids)
+        g = read_ply(folder / MODEL_PLY, device=device)
+        if g.features is None:
+            raise InputError("the model has no identity features (obj_* properties): not a distillation output", folder / MODEL_PLY)
+        if g.features.shape[1] != classifier.in_features:
+            raise InputError(
+                f"{MODEL_PLY} has {g.features.shape[1]} identity feature channels but the classifier expects {classifier.in_features}: files of two runs?",
+                folder / CLASSIFIER_JSON,
+            )
+        return IdentityField(g, classifier.to(device), ids)
 
 
 def classifier_dict(classifier: torch.nn.Linear, object_ids: Sequence[int]) -> dict:

@@ -85,12 +85,9 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
             tmp_path.unlink()
 
 
-@contextlib.contextmanager
-def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary folder beside ``target``; on success it replaces ``target``.
-
-    With ``overwrite=False`` an existing non-empty target is an error (raised before any work).
-    """
+def check_output_dir(target: str | Path, overwrite: bool = False) -> Path:
+    """What :func:`atomic_dir` refuses, for a stage to check before its work: ``target`` is an
+    existing file, or (without ``overwrite``) a folder that is not empty."""
     from inpaint360gs.core.errors import InputError
 
     target = Path(target)
@@ -98,6 +95,16 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
         raise InputError("output path exists and is not a folder", target)
     if target.exists() and any(target.iterdir()) and not overwrite:
         raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", target)
+    return target
+
+
+@contextlib.contextmanager
+def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary folder beside ``target``; on success it replaces ``target``.
+
+    With ``overwrite=False`` an existing non-empty target is an error (raised before any work).
+    """
+    target = check_output_dir(target, overwrite)
     target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(target)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent))

@@ -23,10 +23,24 @@ from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.inpaint.stage import InpaintConfig
 from inpaint360gs.io.atomic import write_text
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.remove.removal import Click, RemovalConfig
+from inpaint360gs.remove.removal import Click, RemovalConfig, check_clicks
 from inpaint360gs.segment.associate import AssociationConfig
 
 STAGES = ("train", "segment", "associate", "distill", "remove", "inpaint")
+RUN_JSON = "run.json"
+
+
+def check_run_folder(out: Path) -> None:
+    """:class:`InputError` unless ``out`` is absent, empty or a run's folder: what it holds must be
+    the stages' folders, ``run.json`` and their temporaries (a stage replaces its folder as a whole)."""
+    if not out.is_dir():
+        return
+    layout = RunLayout(out)
+    names = {p.name for p in (layout.gs, layout.segment, layout.associate, layout.distill, layout.removed, layout.inpainted)} | {RUN_JSON}
+    bases = {n.split(".")[0] for n in names}
+    for p in sorted(out.iterdir()):
+        if p.name not in names and not (p.name.startswith(".") and p.name[1:].split(".")[0] in bases):
+            raise InputError(f"output folder holds {p.name!r}, which no stage of a run writes: choose another output (or an empty folder)", out)
 
 
 @dataclass
@@ -83,8 +97,11 @@ class Runner:
         self.clicks = list(clicks) if clicks else ([] if self.ids else scene_clicks(scene))
         if not self.clicks and not self.ids:
             raise InputError("no object to remove: give --click VIEW:X,Y or --id N (scene.json names no clicks)", scene.root)
+        # views and pixels now; what lies under them once the field exists
+        check_clicks(scene, self.clicks, "--click" if clicks else scene.root / "scene.json")
+        check_run_folder(self.layout.root)
         self.progress = progress
-        self.record_path = self.layout.root / "run.json"
+        self.record_path = self.layout.root / RUN_JSON
         self.record = self._read_record()
         self.fingerprint = scene.fingerprint()
 
@@ -169,7 +186,7 @@ class Runner:
         from inpaint360gs.segment.associate import associate_stage
 
         associate_stage(self.scene, self._model(), self.layout.segment, self.layout.associate, self.cfg.association, overwrite=True,
-                        meta={"scene": str(self.scene.root), "model": str(self.model_file)})  # fmt: skip
+                        model_path=self.model_file, meta={"scene": str(self.scene.root), "model": str(self.model_file)})  # fmt: skip
 
     def _distill(self) -> None:
         from inpaint360gs.distill.run import distill

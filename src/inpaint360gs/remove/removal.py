@@ -2,8 +2,9 @@
 first paragraph; supp. B "Object Removal", supp. Eq. 1 AMCR).
 
 Selection: a click (a view and a pixel) is resolved through the id map the distilled field renders
-for that view (argmax of the classifier on the rendered identity features); an id may also be given
-directly. A click on the background, outside the image or on an unknown view is refused.
+for that view (argmax of the classifier on the rendered identity features; background where the
+rendered alpha is below 0.5); an id may also be given directly. A click on the background, outside
+the image or on an unknown view is refused.
 
 Removal of a selected object (the authors' public code; Gaussian Grouping uses the same two steps):
 
@@ -42,7 +43,7 @@ import torch
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.distill.field import IdentityField
-from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene, View
@@ -64,7 +65,9 @@ class Click:
         try:
             view, xy = text.rsplit(":", 1)
             x, y = (int(round(float(s))) for s in xy.split(","))
-        except ValueError:
+            if not view.strip():
+                raise ValueError("no view")
+        except (ValueError, OverflowError):  # OverflowError: an infinite coordinate
             raise InputError(f"click {text!r} is not VIEW:X,Y (e.g. IMG_0003.png:120,88)", "--click") from None
         return Click(view, x, y)
 
@@ -95,9 +98,11 @@ class Removal:
     counts: dict = field(default_factory=dict)  # per object: by probability, by hull
 
 
-def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> list[int]:
-    """The object id under each click, read off the id map the field renders for the click's view."""
-    ids = []
+def check_clicks(scene: Scene, clicks: list[Click], where: str | Path = "--click") -> list[View]:
+    """The view of each click; :class:`InputError` for an unknown view, an evaluation (``test_``) view
+    or a pixel outside the image (what can be checked before the field exists). ``where``: where
+    the clicks came from, named in the error."""
+    views = []
     for c in clicks:
         try:
             view = scene.view(c.view)
@@ -107,13 +112,49 @@ def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> 
             raise InputError(f"click {c}: {view.name} is an evaluation (test_) view; click on a training view", scene.root)
         cam = view.camera
         if not (0 <= c.x < cam.width and 0 <= c.y < cam.height):
-            raise InputError(f"click {c} is outside the {cam.width}x{cam.height} image", "--click")
-        id_map, _ = field_.render_ids(cam)
+            raise InputError(f"click {c} is outside the {cam.width}x{cam.height} image", where)
+        views.append(view)
+    return views
+
+
+def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> list[int]:
+    """The object id under each click, read off the id map the field renders for the click's view."""
+    ids = []
+    for c, view in zip(clicks, check_clicks(scene, clicks)):
+        id_map, _ = field_.render_ids(view.camera, min_alpha=0.5)  # less than half covered: nothing there
         oid = int(id_map[c.y, c.x])
         if oid == 0:
             raise InputError(f"click {c} is on the background (no object there in the rendered id map)", "--click")
         ids.append(oid)
     return ids
+
+
+def load_field(folder: str | Path, scene: Scene) -> IdentityField:
+    """The distillation output ``folder`` (:meth:`IdentityField.load`), checked against its
+    ``distill.json`` when there is one: the Gaussian count it records, and the content hash of the
+    scene it was distilled from, which must be ``scene``'s (compared at the same ``--resize``)."""
+    from inpaint360gs.distill.field import MODEL_PLY
+    from inpaint360gs.distill.run import DISTILL_JSON
+
+    folder = Path(folder)
+    field_ = IdentityField.load(folder)
+    path = folder / DISTILL_JSON
+    if not path.is_file():
+        return field_
+    try:
+        report = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise InputError(f"not valid JSON ({e})", path) from None
+    if not isinstance(report, dict):
+        raise InputError("distill.json must hold a JSON object", path)
+    n = report.get("num_gaussians")
+    if n is not None and n != len(field_.gaussians):
+        raise InputError(f"holds {len(field_.gaussians)} Gaussians but {DISTILL_JSON} records {n}: files of two runs?", folder / MODEL_PLY)
+    inputs = report.get("inputs") if isinstance(report.get("inputs"), dict) else {}
+    made_from = inputs.get("scene_content_sha256")
+    if made_from is not None and inputs.get("resize", scene.resize) == scene.resize and made_from != scene.fingerprint():
+        raise InputError(f"distilled from other scene content ({inputs.get('scene', '?')}) than {scene.root}: distill this scene first", path)
+    return field_
 
 
 def _inlier_points(points: np.ndarray, k: int, n_std: float) -> np.ndarray:
@@ -220,6 +261,7 @@ def removal_stage(
     """Select (clicks and/or ids), remove, write ``out`` (docs/architecture.md, "Stage outputs");
     returns what ``removal.json`` holds."""
     cfg = cfg or RemovalConfig()
+    check_output_dir(out, overwrite)  # before any work
     t0 = time.perf_counter()
     clicks = list(clicks or [])
     targets = resolve_clicks(field_, scene, clicks) + list(ids or [])

@@ -38,7 +38,7 @@ import torch
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
-from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
 from inpaint360gs.io.scene import Scene
 
@@ -228,9 +228,12 @@ def _tracker(segs: Sequence[np.ndarray], cfg: AssociationConfig) -> list[np.ndar
     return out
 
 
-def associate(segments: dict[str, np.ndarray], scene: Scene, model: Gaussians, cfg: AssociationConfig | None = None) -> Association:
+def associate(
+    segments: dict[str, np.ndarray], scene: Scene, model: Gaussians, cfg: AssociationConfig | None = None, *, where: str | Path | None = None
+) -> Association:
     """Associate the raw segments of ``scene``'s training views (name -> (H, W) id image) into
-    view-consistent object masks, processing views in capture (name) order."""
+    view-consistent object masks, processing views in capture (name) order. ``where``: the model's
+    file, named when the model covers no segment."""
     cfg = (cfg or AssociationConfig()).resolved()
     views = scene.train_views
     missing = [v.name for v in views if v.name not in segments]
@@ -258,7 +261,7 @@ def associate(segments: dict[str, np.ndarray], scene: Scene, model: Gaussians, c
             **({"gaussians": int(sizes[oid - 1])} if sizes is not None else {}),
         })  # fmt: skip
     if cfg.method == "kom" and sum(len(_segment_ids(s, cfg.min_segment_pixels)[0]) for s in segs) and not objects:
-        raise InputError("no segment covers any Gaussian: is the model from this scene?")
+        raise InputError("no segment covers any Gaussian: is the model from this scene?", where)
     return Association({v.name: m for v, m in zip(views, masks)}, objects, cfg)
 
 
@@ -276,17 +279,39 @@ def write_association(result: Association, scene: Scene, out: str | Path, *, met
         (tmp / "objects.json").write_text(json.dumps(info, indent=1) + "\n")
 
 
-def associate_stage(scene: Scene, model: Gaussians, segment_dir: str | Path, out: str | Path, cfg: AssociationConfig | None = None, *, overwrite: bool = False, meta: dict | None = None) -> Association:
-    """Read the segment stage's output, associate, write ``out``; returns the association."""
+def associate_stage(
+    scene: Scene,
+    model: Gaussians,
+    segment_dir: str | Path,
+    out: str | Path,
+    cfg: AssociationConfig | None = None,
+    *,
+    overwrite: bool = False,
+    meta: dict | None = None,
+    model_path: str | Path | None = None,
+) -> Association:
+    """Read the segment stage's output, associate, write ``out``; returns the association.
+
+    The segments must be of this scene: ``segment.json`` records the content hash of the scene
+    they were made from, which must be this one's (at the same ``--resize``)."""
     from inpaint360gs.segment.stage import SEGMENT_JSON, read_segments
 
     t0 = time.perf_counter()
+    check_output_dir(out, overwrite)  # before any work
     by_stem = read_segments(segment_dir, scene)
+    info_path = Path(segment_dir) / SEGMENT_JSON
     try:
-        segmenter = json.loads((Path(segment_dir) / SEGMENT_JSON).read_text()).get("segmenter", "unknown")
+        info = json.loads(info_path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError(f"not valid JSON ({e})", Path(segment_dir) / SEGMENT_JSON) from None
-    result = associate({v.name: by_stem[v.stem] for v in scene.train_views}, scene, model, cfg)
+        raise InputError(f"not valid JSON ({e})", info_path) from None
+    if not isinstance(info, dict):
+        raise InputError("segment.json must hold a JSON object", info_path)
+    segmenter = info.get("segmenter", "unknown")
+    inputs = info.get("inputs") if isinstance(info.get("inputs"), dict) else {}
+    made_from = inputs.get("scene_content_sha256")
+    if made_from is not None and inputs.get("resize", scene.resize) == scene.resize and made_from != scene.fingerprint():
+        raise InputError(f"the segments were made from other scene content ({inputs.get('scene', '?')}) than {scene.root}: segment this scene first", info_path)
+    result = associate({v.name: by_stem[v.stem] for v in scene.train_views}, scene, model, cfg, where=model_path)
     meta = {**(meta or {}), "segmenter": segmenter, "seconds": round(time.perf_counter() - t0, 2)}
     write_association(result, scene, out, meta=meta, overwrite=overwrite)
     return result

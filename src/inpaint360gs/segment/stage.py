@@ -21,7 +21,7 @@ from tqdm import tqdm
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
-from inpaint360gs.io.atomic import atomic_dir
+from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.metrics import psnr
@@ -76,6 +76,7 @@ def segment_scene(
 ) -> dict:
     """Segment every training view of ``scene`` into ``out`` (see the module docstring); returns
     what segment.json holds. ``model`` may be None for a segmenter that does not use it."""
+    check_output_dir(out, overwrite)  # before any work
     views = scene.train_views
     t0 = time.perf_counter()
     images = {v.name: scene.load_image(v) for v in views}  # decode every input before the work

@@ -1,0 +1,416 @@
+"""Click/id selection and removal (paper Sec. 3.4 first paragraph; supp. B "Object Removal",
+supp. Eq. 1 AMCR) on hand-made identity fields (``object_fields``): every Gaussian's object is
+known, so what a click resolves to, what is removed and which pixels are left to fill have exact
+answers without training.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from object_fields import ball, labelled_field, one_hot_features, points_model
+from scene_builder import blobs_scene
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.io.images import read_mask
+from inpaint360gs.io.ply import read_ply
+from inpaint360gs.io.scene import load_scene
+from inpaint360gs.remove.removal import (
+    Click,
+    RemovalConfig,
+    _inlier_points,
+    fill_masks,
+    inside_hull,
+    object_body,
+    remove_objects,
+    removal_stage,
+    resolve_clicks,
+)
+from inpaint360gs.render.api import render
+
+IDS = [0, 3, 7]  # class -> object id (not 0, 1, 2: the mapping is exercised)
+
+
+# --- Click.parse ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "text, want",
+    [
+        ("IMG_0003.png:120,88", ("IMG_0003.png", 120, 88)),
+        ("IMG_0003:0,0", ("IMG_0003", 0, 0)),
+        ("a:b.png:5,6", ("a:b.png", 5, 6)),  # the last colon separates the pixel
+        ("IMG.png:12.6,3.2", ("IMG.png", 13, 3)),  # sub-pixel positions round to the nearest pixel
+        ("IMG.png: 4, 5", ("IMG.png", 4, 5)),
+        ("IMG.png:-1,5", ("IMG.png", -1, 5)),  # parsed; refused against the image size
+    ],
+)
+def test_click_parse(text, want):
+    c = Click.parse(text)
+    assert (c.view, c.x, c.y) == want
+    assert Click.parse(str(c)) == c
+
+
+@pytest.mark.parametrize("text", ["IMG.png", "IMG.png:5", "IMG.png:5,6,7", "IMG.png:x,y", "IMG.png:,", "", "IMG.png:nan,3", "IMG.png:inf,3", "IMG.png:1e400,3", "5,6", ":5,6"])
+def test_malformed_click_is_an_input_error_naming_the_option(text):
+    with pytest.raises(InputError, match="not VIEW:X,Y") as e:
+        Click.parse(text)
+    assert str(e.value.path) == "--click"
+
+
+# --- the blobs scene with a labelled field -----------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def blobs(tmp_path_factory):
+    """The blobs scene (floor = class 0, blob 1 -> id 3, blob 2 -> id 7) and its labelled field."""
+    root, model, labels = blobs_scene(tmp_path_factory.mktemp("remove") / "blobs", n_views=10)
+    scene = load_scene(root)
+    return scene, model, labels, labelled_field(model, labels, IDS)
+
+
+@torch.no_grad()
+def true_ids(model: Gaussians, labels: torch.Tensor, camera) -> np.ndarray:
+    """The object id each pixel shows, from the labels rendered as one-hot weights (not through the
+    field): the label with the largest weight where it covers at least half of the pixel."""
+    g = Gaussians(**{**model.tensors(), "features": torch.nn.functional.one_hot(labels, 3).float()})
+    out = render(g, camera, with_features=True)
+    best = out.features.argmax(-1)
+    ok = out.features.max(-1).values >= 0.5
+    return np.asarray(IDS)[torch.where(ok, best, 0).numpy()]
+
+
+def centre_pixel(camera, point) -> tuple[int, int]:
+    R, t = camera.R.double().numpy(), camera.t.double().numpy()
+    xc = R @ np.asarray(point, float) + t
+    return int(camera.fx * xc[0] / xc[2] + camera.cx), int(camera.fy * xc[1] / xc[2] + camera.cy)
+
+
+BLOB_CENTRES = {3: (0.45, 0.0, 0.25), 7: (-0.45, 0.15, 0.22)}  # scene_builder.blobs_model's
+
+
+def test_a_click_resolves_to_the_object_rendered_there(blobs):
+    scene, model, labels, field = blobs
+    checked = 0
+    for v in scene.train_views:
+        truth = true_ids(model, labels, v.camera)
+        for oid, centre in BLOB_CENTRES.items():
+            x, y = centre_pixel(v.camera, centre)
+            if truth[y, x] == oid:  # the blob is not hidden behind the other one here
+                assert resolve_clicks(field, scene, [Click(v.name, x, y)]) == [oid]
+                checked += 1
+    assert checked >= 2 * len(scene.train_views) - 4
+    # several clicks, in order; a view may be named by its stem
+    v = scene.train_views[0]
+    clicks = [Click(v.stem, *centre_pixel(v.camera, BLOB_CENTRES[7])), Click(v.name, *centre_pixel(v.camera, BLOB_CENTRES[3]))]
+    assert resolve_clicks(field, scene, clicks) == [7, 3]
+
+
+class MapField:
+    """A stand-in for a field whose rendered id map is given (to pin the click's x/y convention)."""
+
+    def __init__(self, id_map: np.ndarray):
+        self.id_map = torch.from_numpy(id_map)
+
+    def render_ids(self, camera, **kw):
+        return self.id_map, None
+
+
+def test_click_reads_column_x_row_y_and_refuses_pixels_outside(blobs):
+    scene = blobs[0]
+    v = scene.train_views[1]
+    w, h = v.camera.width, v.camera.height
+    id_map = np.zeros((h, w), np.int64)
+    id_map[10, 40] = 5  # row 10, column 40
+    id_map[h - 1, w - 1] = 9
+    field = MapField(id_map)
+    assert resolve_clicks(field, scene, [Click(v.name, 40, 10)]) == [5]
+    assert resolve_clicks(field, scene, [Click(v.name, w - 1, h - 1)]) == [9]
+    with pytest.raises(InputError, match="background"):
+        resolve_clicks(field, scene, [Click(v.name, 10, 40)])  # transposed: nothing there
+    for x, y in ((w, 0), (0, h), (-1, 3), (3, -1), (10**6, 10**6)):
+        with pytest.raises(InputError, match=f"outside the {w}x{h} image") as e:
+            resolve_clicks(field, scene, [Click(v.name, x, y)])
+        assert str(e.value.path) == "--click"
+
+
+def test_click_on_the_background_is_refused(blobs):
+    scene, model, labels, field = blobs
+    v = scene.train_views[2]
+    truth = true_ids(model, labels, v.camera)
+    alpha = render(model, v.camera).alpha.detach().numpy()
+    floor = np.argwhere((truth == 0) & (alpha > 0.9))[0]  # the floor: a background Gaussian
+    empty = np.argwhere(alpha < 1e-3)[0]  # nothing rendered at all
+    for y, x in (floor, empty):
+        with pytest.raises(InputError, match="on the background"):
+            resolve_clicks(field, scene, [Click(v.name, int(x), int(y))])
+
+
+def test_nothing_rendered_is_background_whatever_the_classifier_says_of_it(blobs):
+    """Where no Gaussian is rendered the feature is zero and Phi answers with its bias alone; a bias
+    favouring an object must not turn empty space into that object."""
+    scene, model, labels, field = blobs
+    biased = labelled_field(model, labels, IDS)
+    with torch.no_grad():
+        biased.classifier.bias.copy_(torch.tensor([0.0, 3.0, 0.0]))  # object 3 where features are ~0
+    v = scene.train_views[2]
+    alpha = render(model, v.camera).alpha.detach()
+    ids, _ = biased.render_ids(v.camera)
+    assert (ids[alpha < 1e-3] == 3).all()  # the raw id map
+    assert (biased.render_ids(v.camera, min_alpha=0.5)[0][alpha < 0.5] == 0).all()
+    y, x = (int(i) for i in (alpha < 1e-3).nonzero()[0])
+    with pytest.raises(InputError, match="on the background"):
+        resolve_clicks(biased, scene, [Click(v.name, x, y)])
+    x, y = centre_pixel(v.camera, BLOB_CENTRES[7])
+    assert resolve_clicks(biased, scene, [Click(v.name, x, y)]) == [7]
+
+
+def test_click_on_an_unknown_or_test_view_is_refused(blobs):
+    scene, _, _, field = blobs
+    with pytest.raises(InputError, match="has no view 'IMG_999.png'"):
+        resolve_clicks(field, scene, [Click("IMG_999.png", 3, 3)])
+    with pytest.raises(InputError, match="evaluation \\(test_\\) view"):
+        resolve_clicks(field, scene, [Click(scene.test_views[0].name, 3, 3)])
+
+
+# --- removal by id: probability, body, hull ---------------------------------------------------------
+
+
+def hand_field(parts: list[tuple[np.ndarray, int]], object_ids=IDS):
+    """A field from point sets with a class each (-1: no opinion); returns it and each Gaussian's part."""
+    pts = np.concatenate([p for p, _ in parts])
+    classes = torch.tensor(np.concatenate([np.full(len(p), c) for p, c in parts]), dtype=torch.long)
+    part = np.concatenate([np.full(len(p), k) for k, (p, _) in enumerate(parts)])
+    return labelled_field(points_model(pts), classes, object_ids), part
+
+
+@pytest.fixture(scope="module")
+def hull_case():
+    """Object 3 (a ball of Gaussians at the origin) holding Gaussians the field does not assign to it
+    (background features, no opinion, a few of object 7), object 7 beside it, a floor, a whisker of
+    object-3 Gaussians linked to the ball, and far object-3 strays with background between."""
+    rng = np.random.default_rng(0)
+    g = np.linspace(-1.5, 1.5, 16)
+    fx, fy = np.meshgrid(g, g)
+    parts = {
+        "obj3": (ball(rng, 400, 0.3), 1),
+        "inside_background": (ball(rng, 30, 0.15), 0),
+        "inside_no_opinion": (ball(rng, 20, 0.15), -1),
+        "inside_obj7": (ball(rng, 6, 0.15), 2),
+        "obj7": (ball(rng, 400, 0.3, (1.0, 0.0, 0.0)), 2),
+        "floor": (np.stack([fx.ravel(), fy.ravel(), np.full(fx.size, -0.5)], 1), 0),
+        "whisker": (np.stack([np.linspace(0.33, 0.6, 6), np.zeros(6), np.zeros(6)], 1) @ np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1.0]]), 1),
+        "whisker_gap": (np.array([[0.0, 0.45, 0.0], [0.02, 0.52, 0.01]]), 0),  # inside the hull only if the whisker counted
+        "strays": (np.array([[0.0, -1.2, 0.6], [0.05, -1.25, 0.62], [0.0, -1.2, 0.65]]), 1),
+        "stray_gap": (np.array([[0.0, -0.7, 0.35], [0.0, -0.5, 0.25]]), 0),  # inside the hull only if the strays counted
+    }
+    field, part = hand_field(list(parts.values()))
+    names = list(parts)
+    return field, np.asarray(names)[part]
+
+
+def test_removal_takes_the_object_and_what_lies_inside_its_hull(hull_case):
+    field, part = hull_case
+    res = remove_objects(field, [3])
+    removed = res.removed_mask.numpy()
+    for name in ("obj3", "inside_background", "inside_no_opinion"):
+        assert removed[part == name].all(), name
+    for name in ("inside_obj7", "obj7", "floor", "whisker_gap", "strays", "stray_gap"):
+        assert not removed[part == name].any(), name
+    # by probability: the ball and the whisker (one body); by hull: the low-probability inside
+    assert res.counts == {"3": {"by_probability": 406, "by_hull": 50}}
+    assert res.objects == [3]
+    assert len(res.kept) + len(res.removed) == len(field.gaussians)
+    assert torch.equal(res.removed.means, field.gaussians.means[res.removed_mask])
+    assert torch.equal(res.removed.features, field.gaussians.features[res.removed_mask])  # kept to put back
+
+
+def test_without_the_hull_only_the_probable_gaussians_go(hull_case):
+    field, part = hull_case
+    res = remove_objects(field, [3], RemovalConfig(hull=False))
+    assert np.array_equal(res.removed_mask.numpy(), np.isin(part, ["obj3", "whisker"]))
+    assert res.counts["3"]["by_hull"] == 0
+
+
+def test_other_objects_are_protected_unless_that_is_turned_off(hull_case):
+    field, part = hull_case
+    res = remove_objects(field, [3], RemovalConfig(protect_others=False))
+    assert res.removed_mask.numpy()[part == "inside_obj7"].all()
+    assert not res.removed_mask.numpy()[part == "obj7"].any()
+
+
+def test_two_objects_at_once(hull_case):
+    field, part = hull_case
+    res = remove_objects(field, [7, 3])
+    removed = res.removed_mask.numpy()
+    assert removed[np.isin(part, ["obj3", "obj7", "inside_obj7", "inside_background"])].all()
+    assert not removed[np.isin(part, ["floor", "strays", "stray_gap", "whisker_gap"])].any()
+    assert set(res.counts) == {"3", "7"}
+
+
+def test_threshold_decides_what_goes_by_probability():
+    rng = np.random.default_rng(1)
+    pts = ball(rng, 50, 0.3)
+    classes = torch.ones(50, dtype=torch.long)
+    field = labelled_field(points_model(pts), classes, IDS)
+    # half of them: a weaker opinion, probability e^2/(e^2+2) = 0.787 of object 3
+    field.gaussians.features[:25] = one_hot_features(classes[:25], 4, strength=2.0)
+    got = remove_objects(field, [3], RemovalConfig(threshold=0.8, hull=False)).removed_mask
+    assert got.tolist() == [False] * 25 + [True] * 25
+    assert remove_objects(field, [3], RemovalConfig(threshold=0.7, hull=False)).removed_mask.all()
+    with pytest.raises(InputError, match=r"no Gaussian has probability > 0.9999 for object\(s\) \[3\]"):
+        remove_objects(field, [3], RemovalConfig(threshold=0.9999))
+
+
+def test_unknown_ids_and_empty_selection_are_refused(hull_case):
+    field, _ = hull_case
+    for bad in ([5], [3, 4], [0], [256]):
+        with pytest.raises(InputError, match=r"unknown object id .* \(the field knows \[3, 7\]\)") as e:
+            remove_objects(field, bad)
+        assert str(e.value.path) == "--id"
+    with pytest.raises(InputError, match="nothing selected"):
+        remove_objects(field, [])
+
+
+def test_outlier_filter_and_body_on_hand_sets():
+    rng = np.random.default_rng(2)
+    core = ball(rng, 400, 0.3)
+    whisker = np.stack([np.linspace(0.33, 0.6, 6), np.zeros(6), np.zeros(6)], 1)
+    pts = np.r_[core, whisker]
+    inl = _inlier_points(pts, 10, 2.0)
+    assert not any((inl == w).all(1).any() for w in whisker[1:])  # the whisker's tip is filtered out
+    assert len(inl) >= 0.97 * len(core)
+    assert _inlier_points(pts[:8], 10, 2.0).shape == (8, 3)  # too few for k neighbours: all kept
+    far = np.array([[5.0, 0, 0], [5.05, 0, 0]])
+    body = object_body(np.r_[pts, far], 4.0, 0.1)
+    assert body[: len(pts)].all() and not body[len(pts) :].any()
+    probe = np.array([[0.45, 0, 0], [0.0, 0, 0], [2.5, 0, 0], [0.2, 0, 0]])
+    assert inside_hull(inl, probe).tolist() == [False, True, False, True]
+    assert inside_hull(pts, probe).tolist() == [True, True, False, True]  # unfiltered: the whisker widens the hull
+    flat = np.c_[rng.uniform(size=(30, 2)), np.zeros(30)]
+    assert not inside_hull(flat, flat).any()  # no volume: nothing is inside
+    assert not inside_hull(core[:4], core).any()
+
+
+# --- fill masks (AMCR) ------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def wall_case(blobs):
+    """A view of the blobs scene, an opaque wall of Gaussians filling it behind the origin, and the
+    unit vector from the camera through the origin (the view's centre pixel)."""
+    view = blobs[0].train_views[0]
+    R, t = view.camera.R.double().numpy(), view.camera.t.double().numpy()
+    ahead = R.T @ t / np.linalg.norm(t)  # = -eye / |eye|
+    right, up = R[0], R[1]  # camera axes in the world
+    g = np.linspace(-4, 4, 81)
+    wall = np.array([0.8 * ahead + a * right + b * up for a in g for b in g])
+    return view, wall, ahead
+
+
+def wall_model(wall: np.ndarray, front: list[tuple[np.ndarray, float]]) -> Gaussians:
+    """The wall (opaque, small Gaussians) and big Gaussians (radius 0.3) at the given centres with the given opacities."""
+    m = points_model(np.r_[wall, [c for c, _ in front]], scale=0.1, opacity=0.99)
+    for k, (_, opacity) in enumerate(front):
+        i = len(wall) + k
+        m.log_scales[i] = float(np.log(0.3))
+        m.opacity_logits[i] = torch.logit(torch.tensor(opacity))
+    return m
+
+
+def test_a_pixel_is_to_fill_when_removed_gaussians_gave_half_its_colour(wall_case):
+    view, wall, _ = wall_case
+    cam = view.camera
+    front = torch.zeros(len(wall) + 1, dtype=torch.bool)
+    front[-1] = True
+    cy, cx = cam.height // 2, cam.width // 2
+    origin = np.zeros(3)
+    for opacity, share, centre in ((0.8, 0.5, True), (0.4, 0.5, False), (0.4, 0.3, True), (0.8, 0.9, False)):
+        mask = fill_masks(wall_model(wall, [(origin, opacity)]), front, [view], share)[view.name]
+        assert mask.dtype == bool and mask.shape == (cam.height, cam.width)
+        assert mask[cy, cx] == centre, (opacity, share)
+        assert not mask[0, 0] and not mask[-1, -1]  # the wall's corners: nothing removed there
+    # the wall itself removed: what the front Gaussian does not cover is to be filled
+    mask = fill_masks(wall_model(wall, [(origin, 0.8)]), ~front, [view])[view.name]
+    assert mask[0, 0] and mask[-1, -1] and not mask[cy, cx]
+
+
+def test_a_removed_gaussian_hidden_behind_a_kept_one_leaves_nothing_to_fill(wall_case):
+    view, wall, ahead = wall_case
+    cam = view.camera
+    m = wall_model(wall, [(np.zeros(3), 0.99), (0.4 * ahead, 0.99)])  # kept in front, removed right behind it
+    removed = torch.zeros(len(m), dtype=torch.bool)
+    removed[-1] = True
+    assert not fill_masks(m, removed, [view])[view.name][cam.height // 2, cam.width // 2]
+    removed = torch.zeros(len(m), dtype=torch.bool)
+    removed[-2] = True  # the front one removed instead
+    assert fill_masks(m, removed, [view])[view.name][cam.height // 2, cam.width // 2]
+
+
+# --- loading a distillation output ------------------------------------------------------------------
+
+
+def test_load_field_checks_the_folder_against_the_scene(blobs, tmp_path):
+    from object_fields import write_field
+
+    from inpaint360gs.remove.removal import load_field
+
+    scene, _, _, field = blobs
+    folder = write_field(tmp_path / "d", field, scene)
+    got = load_field(folder, scene)
+    assert got.object_ids == IDS and torch.equal(got.gaussians.features, field.gaussians.features)
+    rep = json.loads((folder / "distill.json").read_text())
+    (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "scene_content_sha256": "0" * 64}}))
+    with pytest.raises(InputError, match="distilled from other scene content"):
+        load_field(folder, scene)
+    (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "scene_content_sha256": "0" * 64, "resize": 2}}))
+    load_field(folder, scene)  # another resolution's hash: not comparable, not refused
+    (folder / "distill.json").write_text(json.dumps({**rep, "num_gaussians": 5}))
+    with pytest.raises(InputError, match=f"holds {len(field.gaussians)} Gaussians but distill.json records 5"):
+        load_field(folder, scene)
+    (folder / "distill.json").unlink()  # a folder without its report: loaded as it is
+    assert len(load_field(folder, scene).gaussians) == len(field.gaussians)
+
+
+# --- the stage --------------------------------------------------------------------------------------
+
+
+def test_removal_stage_outputs(blobs, tmp_path):
+    scene, model, labels, field = blobs
+    v = scene.train_views[3]
+    click = Click(v.name, *centre_pixel(v.camera, BLOB_CENTRES[3]))
+    info = removal_stage(field, scene, tmp_path / "rem", clicks=[click], ids=[3], meta={"scene": "s"})
+    out = tmp_path / "rem"
+    assert sorted(p.name for p in out.iterdir()) == ["masks", "point_cloud.ply", "removal.json", "removed.ply", "removed_index.npy"]
+    blob = (labels == 1).numpy()  # blob 1 = object 3: exactly its Gaussians (the floor lies below its hull)
+    assert np.array_equal(np.load(out / "removed_index.npy"), np.flatnonzero(blob))
+    kept, removed = read_ply(out / "point_cloud.ply"), read_ply(out / "removed.ply")
+    assert len(kept) == (~blob).sum() and torch.equal(kept.means, model.means[~torch.from_numpy(blob)])
+    assert torch.equal(removed.features, field.gaussians.features[torch.from_numpy(blob)])
+    assert sorted(p.name for p in (out / "masks").iterdir()) == sorted(f"{w.stem}.png" for w in scene.train_views)
+    pct = []
+    for w in scene.train_views:
+        m = read_mask(out / "masks" / f"{w.stem}.png") > 127
+        truth = true_ids(model, labels, w.camera) == 3
+        assert truth.sum() > 10 and (m & truth).sum() / (m | truth).sum() > 0.9, w.name
+        pct.append(100 * m.mean())
+    rec = json.loads((out / "removal.json").read_text())
+    assert rec == info
+    assert rec["scene"] == "s" and rec["objects"] == [3] and rec["clicks"] == [str(click)]  # the click and the id: one object
+    assert rec["removed_gaussians"] == blob.sum() and rec["kept_gaussians"] == (~blob).sum()
+    assert abs(rec["amcr_percent"] - np.mean(pct)) < 1e-6
+    # same inputs, same bytes
+    removal_stage(field, scene, tmp_path / "again", clicks=[click], ids=[3])
+    for name in ["point_cloud.ply", "removed.ply", "removed_index.npy", *(f"masks/{w.stem}.png" for w in scene.train_views)]:
+        assert (out / name).read_bytes() == (tmp_path / "again" / name).read_bytes(), name
+    # an existing output is kept unless overwrite
+    before = (out / "removal.json").read_bytes()
+    with pytest.raises(InputError, match="not empty"):
+        removal_stage(field, scene, out, ids=[7])
+    assert (out / "removal.json").read_bytes() == before
+    removal_stage(field, scene, out, ids=[7], overwrite=True)
+    assert json.loads((out / "removal.json").read_text())["objects"] == [7]
