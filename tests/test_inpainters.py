@@ -381,3 +381,21 @@ def test_lama_bad_checkpoints(tmp_path, monkeypatch):
     with pytest.raises(InputError, match="not a LaMa model") as e:
         make_inpainter("lama", lama_onnx=wrong)
     assert str(wrong) in str(e.value) and "img" in str(e.value)
+
+
+def test_patchmatch_with_almost_no_known_pixels_fills_from_them():
+    """A hole leaving too few known pixels for one PatchMatch source patch is filled by diffusing
+    the known pixels inward; a mask over the whole image is refused."""
+    from inpaint360gs.core.errors import InputError
+    from inpaint360gs.inpaint.inpainters import make_inpainter
+
+    rng = np.random.default_rng(0)
+    img = rng.random((24, 32, 3))
+    mask = np.ones((24, 32), bool)
+    mask[10:12, 10:12] = False
+    out = make_inpainter("patchmatch").rgb(img, mask)
+    assert np.array_equal(out[~mask], img[~mask])
+    known = img[~mask]
+    assert np.all(out[mask] >= known.min(axis=0) - 1e-6) and np.all(out[mask] <= known.max(axis=0) + 1e-6)
+    with pytest.raises(InputError, match="covers every pixel"):
+        make_inpainter("patchmatch").rgb(img, np.ones((24, 32), bool))

@@ -306,7 +306,12 @@ def _patchmatch(img255: np.ndarray, mask: np.ndarray, seed: int, patch_size: int
         from patchmatch_cython import inpaint_pyramid
     except ImportError:
         raise InputError("the patchmatch inpainter needs patchmatch-cython (pip install patchmatch-cython)", "patchmatch") from None
-    return inpaint_pyramid(img255.astype(np.float32), mask, patch_size=patch_size, seed=int(seed)).astype(np.float64)
+    try:
+        return inpaint_pyramid(img255.astype(np.float32), mask, patch_size=patch_size, seed=int(seed)).astype(np.float64)
+    except ValueError:
+        # too few known pixels for one whole source patch at some pyramid level: no exemplar to
+        # copy, so diffuse the known border inward instead (Telea), the only fill that still works
+        return _cv_fill(img255.astype(np.float64), mask, cv2.INPAINT_TELEA, 3.0)
 
 
 # ----------------------------------------------------------------------------------------------
