@@ -37,6 +37,9 @@ config.update(_typed(dict(config)))
 validate(config, "workflow/config/config.schema.yaml")
 
 
+report: "workflow/report/workflow.rst"
+
+
 include: "workflow/rules/common.smk"
 include: "workflow/rules/dataset.smk"
 include: "workflow/rules/reconstruct.smk"

@@ -68,6 +68,10 @@ rule paper_tables:
         table1=f"{RESULTS}/table1_average.md",
         per_scene=f"{RESULTS}/per_scene.md",
         provenance=f"{RESULTS}/provenance.json",
+        csv=[
+            report(f"{RESULTS}/{t}.csv", caption=f"../report/{t}.rst", category="Tables", labels={"table": t})
+            for t in ("table1_average", "table3_ablation", "table2_runtime", "table2_runtime_detail", "per_scene")
+        ],
     params:
         out=RESULTS,
         seed=config["seed"],

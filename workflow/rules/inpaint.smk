@@ -10,7 +10,21 @@ rule inpaint:
         distill=lambda wc: f"{OUT}/{wc.scene}/{wc.segmenter}/{METHODS[wc.method]['association']}/distill/distill.json",
         removal=lambda wc: f"{OUT}/{wc.scene}/{wc.segmenter}/{METHODS[wc.method]['association']}/removed/removal.json",
     output:
-        f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.json",
+        record=f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.json",
+        grid=report(
+            f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/grid.png",
+            caption="../report/grid.rst",
+            category="Before / after",
+            subcategory="{scene}",
+            labels={"scene": "{scene}", "segmenter": "{segmenter}", "method": "{method}", "figure": "test views"},
+        ),
+        trajectory=report(
+            f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/trajectory.gif",
+            caption="../report/trajectory.rst",
+            category="Virtual trajectory",
+            subcategory="{scene}",
+            labels={"scene": "{scene}", "segmenter": "{segmenter}", "method": "{method}", "figure": "trajectory"},
+        ),
     params:
         backend=BACKEND,
         scene_dir=lambda wc: scene_dir(wc.scene),
