@@ -55,3 +55,15 @@ def test_bad_config_values_are_refused(tmp_path, bad, named):
     p = _dry_run(tmp_path, bad)
     assert p.returncode != 0
     assert named in (p.stderr + p.stdout)
+
+
+@pytest.mark.slow
+def test_slurm_profile_plans_the_jobs(tmp_path):
+    """The cluster profile parses and plans every job (dry run); needs the SLURM executor plugin."""
+    pytest.importorskip("snakemake_executor_plugin_slurm")
+    cmd = [sys.executable, "-m", "snakemake", "-n", "--profile", str(ROOT / "workflow/profiles/slurm"), "--directory", str(ROOT),
+           "--snakefile", str(ROOT / "Snakefile"), "--config", f"data_dir={tmp_path}/data", f"out_dir={tmp_path}/out",
+           f"results_dir={tmp_path}/results", "scenes=[cone]"]  # fmt: skip
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "paper_tables" in p.stdout + p.stderr
