@@ -236,6 +236,27 @@ def test_fid_column_when_every_run_has_it_and_seeds(tmp_path, capsys):
     assert prov["seeds"] == [0, 1] and prov["config"] is None
 
 
+def test_views_sweep_table_and_plot(tmp_path, capsys):
+    """Sweep records (the full method at other L) give views_sweep.{csv,md,tex,png}: one row per L,
+    means over the scenes every L has, sorted by L; without sweep records none is written."""
+    paths = []
+    for L, fds in ((30, (10.0, 14.0)), (10, (20.0, 30.0)), (20, (12.0, 18.0))):
+        for scene, fd in zip(("s1", "s2"), fds):
+            ev = eval_json(tmp_path / f"L{L}" / scene / "eval.json", 25, 0.8, 0.1, fd=fd)
+            kind, method = ("method", "full") if L == 30 else ("sweep", f"full_L{L}")
+            labels = {"scene": scene, "method": method, "segmenter": "g", "kind": kind, "virtual_views": L}
+            paths.append(record(capsys, tmp_path / f"L{L}" / scene / "r.json", labels, "--eval", ev))
+    code, err = _paper(capsys, tmp_path, paths)
+    assert code == 0, err
+    sweep = pd.read_csv(tmp_path / "tables" / "views_sweep.csv")
+    assert list(sweep["virtual_views"]) == [10, 20, 30]
+    assert list(sweep["fd_vgg16"]) == [25.0, 15.0, 12.0]
+    assert (tmp_path / "tables" / "views_sweep.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, err = _paper(capsys, tmp_path / "nosweep", [p for p in paths if "/L30/" in p])
+    assert code == 0, err
+    assert not (tmp_path / "nosweep" / "tables" / "views_sweep.csv").exists()
+
+
 # --- bad input: one line, exit 2, nothing written ----------------------------------------------
 
 

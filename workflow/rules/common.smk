@@ -64,6 +64,13 @@ METHODS = {
     "abl_d": dict(kind="ablation", labels=dict(ablation="d"), name="w/o recursive conditioning", association="kom", inpaint="--no-condition"),
     "abl_e": dict(kind="ablation", labels=dict(ablation="e"), name="w/o hybrid supervision", association="kom", inpaint="--supervision mask"),
 }
+METHODS["full"]["labels"] = dict(virtual_views=config["inpaint"]["virtual_views"])
+# the supplementary's study of the number of virtual views L: the full method at each L of `views_sweep`
+SWEEP = [f"full_L{n}" for n in config["views_sweep"] if n != config["inpaint"]["virtual_views"]]
+for n in config["views_sweep"]:
+    if n != config["inpaint"]["virtual_views"]:
+        METHODS[f"full_L{n}"] = dict(kind="sweep", name=f"Inpaint360GS, L = {n}", association="kom", inpaint=f"--virtual-views {n}",
+                                     labels=dict(virtual_views=n))
 unknown = sorted(set(config["methods"]) - set(METHODS))
 if unknown:
     raise WorkflowError(f"config: unknown method(s) {unknown}; known: {sorted(METHODS)}")
@@ -96,7 +103,8 @@ def scene_dir(scene):
 def runs():
     """(scene, segmenter, method) of every run; the oracle segmenter reads the generator's ground
     truth, so it runs on synthetic scenes only."""
-    return [(s, g, m) for s in SCENES for g in SEGMENTERS for m in config["methods"] if g != "oracle" or s in SYNTHETIC]
+    methods = list(config["methods"]) + (SWEEP if "full" in config["methods"] else [])
+    return [(s, g, m) for s in SCENES for g in SEGMENTERS for m in methods if g != "oracle" or s in SYNTHETIC]
 
 
 def run_dir(wc):

@@ -72,6 +72,11 @@ rule paper_tables:
             report(f"{RESULTS}/{t}.csv", caption=f"../report/{t}.rst", category="Tables", labels={"table": t})
             for t in ("table1_average", "table3_ablation", "table2_runtime", "table2_runtime_detail", "per_scene")
         ],
+        sweep=[
+            report(f"{RESULTS}/views_sweep.png", caption="../report/views_sweep.rst", category="Tables", labels={"table": "views_sweep"})
+        ]
+        if SWEEP and "full" in config["methods"]
+        else [],
     params:
         out=RESULTS,
         seed=config["seed"],

@@ -45,6 +45,7 @@ rule inpaint:
     benchmark:
         f"{OUT}/benchmarks/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.tsv"
     shell:
-        "inpaint360gs inpaint {params.scene_dir:q} {params.distill:q} {params.removed:q} {params.out:q} {params.switches}"
+        # the method's switches come last: they override the configured defaults (e.g. L of a sweep run)
+        "inpaint360gs inpaint {params.scene_dir:q} {params.distill:q} {params.removed:q} {params.out:q}"
         " --inpaint-iterations {params.iterations} --virtual-views {params.views} --seed {params.seed}"
-        " --backend {params.backend} --threads {threads} --overwrite --no-progress {params.extra} > {log:q} 2>&1"
+        " --backend {params.backend} --threads {threads} --overwrite --no-progress {params.extra} {params.switches} > {log:q} 2>&1"

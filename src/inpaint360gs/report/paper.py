@@ -37,7 +37,7 @@ from pathlib import Path
 import pandas as pd
 
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.io.atomic import write_text
+from inpaint360gs.io.atomic import atomic_path, write_text
 from inpaint360gs.report.records import METRICS, load_records, sha256_file
 from inpaint360gs.report.tables import git_commit, provenance_line
 
@@ -79,7 +79,7 @@ ABLATIONS: dict[str, tuple[str, tuple[str, ...]]] = {
 # not part of a method's cost (paper Tab. 2 counts training and inpainting).
 STAGE_ORDER = ("train", "segment", "associate", "distill", "remove", "inpaint", "render", "evaluate")
 NOT_IN_TOTAL = ("evaluate",)
-KIND_ORDER = {"baseline": 0, "method": 1, "ablation": 2}
+KIND_ORDER = {"baseline": 0, "method": 1, "ablation": 2, "sweep": 3}
 
 MARKS_MD = ("**{}**", "<ins>{}</ins>", "_{}_")
 MARKS_TEX = (r"\textbf{{{}}}", r"\underline{{{}}}", r"\textit{{{}}}")
@@ -595,6 +595,54 @@ def output_names() -> list[str]:
     return [f"{name}.{ext}" for name, _ in TABLES for ext in ("csv", "md", "tex")] + ["provenance.json"]
 
 
+def views_sweep(records: list[dict]) -> Table | None:
+    """The full method at several numbers of virtual views L (records of kind ``sweep`` with a
+    ``virtual_views`` label, plus the full method's own L when the ``method`` records carry one),
+    averaged over the scenes every L has: the supplementary's FID-vs-L study."""
+    recs = [r for r in records if r["labels"]["kind"] == "sweep" or (r["labels"]["kind"] == "method" and "virtual_views" in r["labels"])]
+    if not any(r["labels"]["kind"] == "sweep" for r in recs):
+        return None
+    for r in recs:
+        v = r["labels"].get("virtual_views", "")
+        if not str(v).isdigit():
+            raise InputError(f"a sweep record needs a virtual_views label (a positive integer), got {v!r}", r.get("_path", "record"))
+    notes: list[str] = []
+    table, _ = _average_table("views_sweep", "Number of virtual views L (supplementary)", [{**r, "labels": {**r["labels"], "kind": "sweep"}} for r in recs], ("sweep",), notes)
+    views = {r["labels"]["method"]: int(r["labels"]["virtual_views"]) for r in recs}
+    table.labels.insert(0, ("virtual_views", "L"))
+    for row in table.rows:
+        row["virtual_views"] = str(views[row["method"]])
+    table.rows.sort(key=lambda row: int(row["virtual_views"]))
+    table.marked = False
+    return table
+
+
+def sweep_plot(table: Table) -> bytes:
+    """PNG: FD-VGG16 (and FID when present) against L, from :func:`views_sweep`'s table."""
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    xs = [int(r["virtual_views"]) for r in table.rows]
+    fig, ax = plt.subplots(figsize=(4.5, 3.2), dpi=120)
+    for key, title in (("fid", "FID"), ("fd_vgg16", "FD-VGG16 (FID substitute)")):
+        ys = [r.get(key) for r in table.rows]
+        if any(y is not None for y in ys):
+            ax.plot(xs, [float("nan") if y is None else y for y in ys], marker="o", label=title)
+    ax.set_xlabel("virtual views L")
+    ax.set_ylabel("distance (lower is better)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    plt.close(fig)
+    return buf.getvalue()
+
+
 def paper_tables(record_paths: list[str | Path], out_dir: str | Path, *, config: str | Path | None = None,
                  seeds: list[int] | None = None) -> dict[str, Table]:
     """Read the records, build every table and write them into ``out_dir`` (see the module docstring).
@@ -609,8 +657,19 @@ def paper_tables(record_paths: list[str | Path], out_dir: str | Path, *, config:
         files[f"{name}.csv"] = to_csv(t)
         files[f"{name}.md"] = to_markdown(t, footer)
         files[f"{name}.tex"] = to_latex(t)
+    blobs: dict[str, bytes] = {}
+    sweep = views_sweep(records)
+    if sweep is not None:
+        tables["views_sweep"] = sweep
+        files["views_sweep.csv"] = to_csv(sweep)
+        files["views_sweep.md"] = to_markdown(sweep, footer)
+        files["views_sweep.tex"] = to_latex(sweep)
+        blobs["views_sweep.png"] = sweep_plot(sweep)
     files["provenance.json"] = json.dumps(provenance(records, cfg, seeds, list(files)), indent=1, allow_nan=False, default=str) + "\n"
     out = Path(out_dir)
     for fname, text in files.items():
         write_text(out / fname, text)
+    for fname, data in blobs.items():
+        with atomic_path(out / fname) as tmp:
+            tmp.write_bytes(data)
     return tables

@@ -31,7 +31,7 @@ from pathlib import Path
 from inpaint360gs.core.errors import InputError
 
 FORMAT = "inpaint360gs-table-record/1"
-KINDS = ("method", "baseline", "ablation")
+KINDS = ("method", "baseline", "ablation", "sweep")  # sweep: the full method at another L (virtual_views label)
 REQUIRED_LABELS = ("scene", "method", "segmenter")
 
 # evaluation means (``mean`` of the evaluation JSON) and scene metrics (``scene_metrics``)
