@@ -20,7 +20,6 @@ also records wall times).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 import warnings
@@ -31,6 +30,7 @@ from pathlib import Path
 import torch
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import sha256_file
 from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.distill.cached import CachedFeatureRenderer, spatial_order
 from inpaint360gs.distill.config import DistillConfig
@@ -55,12 +55,6 @@ class DistillResult:
     out_dir: Path | None
 
 
-def _sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def init_features(n: int, dim: int, generator: torch.Generator) -> torch.Tensor:
@@ -214,10 +208,10 @@ def distill(
         raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", out)
     inputs: dict = {"scene": str(scene.root), "scene_content_sha256": scene.fingerprint(), "resize": scene.resize}
     if isinstance(model, (str, Path)):
-        inputs.update(model=str(model), model_sha256=_sha256_file(Path(model)))
+        inputs.update(model=str(model), model_sha256=sha256_file(Path(model)))
         model = read_ply(model)
     if isinstance(objects, (str, Path)):
-        inputs.update(objects=str(objects), objects_sha256=_sha256_file(Path(objects)))
+        inputs.update(objects=str(objects), objects_sha256=sha256_file(Path(objects)))
         objects = read_objects(objects)
     labels = load_labels(masks_dir, scene.train_views, objects)
     inputs.update(masks_dir=str(masks_dir), masks_sha256=labels.sha256())

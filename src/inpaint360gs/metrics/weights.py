@@ -15,7 +15,6 @@ unpickler that resolves only the three globals a numpy array needs (``_reconstru
 
 from __future__ import annotations
 
-import hashlib
 import importlib.util
 import os
 import pickle
@@ -24,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import sha256_file
 
 LPIPS_ENV = "INPAINT360GS_LPIPS_WEIGHTS"
 INCEPTION_ENV = "INPAINT360GS_INCEPTION_WEIGHTS"
@@ -126,9 +126,3 @@ def inception_weights_path(path: str | Path | None = None) -> Path | None:
     return given
 
 
-def sha256_file(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()

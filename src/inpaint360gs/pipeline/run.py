@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import sha256_file
 from inpaint360gs.core.layout import RunLayout
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.inpaint.stage import InpaintConfig
@@ -58,12 +59,6 @@ class RunConfig:
     backend: str = "auto"
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with path.open("rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _signature(*parts) -> str:
@@ -125,7 +120,7 @@ class Runner:
     def signatures(self) -> dict[str, str]:
         c = self.cfg
         sig = {}
-        model_id = ("given", _sha256(self.model_path)) if self.model_path is not None else ("trained", _settings(c.train))
+        model_id = ("given", sha256_file(self.model_path)) if self.model_path is not None else ("trained", _settings(c.train))
         sig["train"] = _signature("train", self.fingerprint, model_id)
         sig["segment"] = _signature("segment", sig["train"], c.segmenter, c.segmenter_options, c.seed)
         sig["associate"] = _signature("associate", sig["segment"], _settings(c.association))

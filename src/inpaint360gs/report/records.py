@@ -22,13 +22,13 @@ Every value is checked when a record is written and again when it is read (docs/
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import re
 from pathlib import Path
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import sha256_file
 
 FORMAT = "inpaint360gs-table-record/1"
 KINDS = ("method", "baseline", "ablation", "sweep")  # sweep: the full method at another L (virtual_views label)
@@ -46,12 +46,6 @@ METRICS = MEAN_METRICS + SCENE_METRICS
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 
 
-def sha256_file(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _no_constant(name: str):

@@ -10,7 +10,6 @@ scene's training views (a model trained on another scene is refused). Never read
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 from pathlib import Path
@@ -20,6 +19,7 @@ import torch
 from tqdm import tqdm
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import sha256_file
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
@@ -35,12 +35,6 @@ MIN_MODEL_PSNR = 16.0
 MODEL_CHECK_VIEWS = 3
 
 
-def file_sha256(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 @torch.no_grad()
@@ -103,7 +97,7 @@ def segment_scene(
             per_view[v.stem] = {"segments": int(len(present)), "covered_fraction": round(float((ids > 0).mean()), 4)}
         inputs = {"scene": str(scene.root), "scene_content_sha256": scene.fingerprint(), "resize": scene.resize}
         if model_path is not None:
-            inputs.update(model=str(model_path), model_sha256=file_sha256(model_path))
+            inputs.update(model=str(model_path), model_sha256=sha256_file(model_path))
         info = {
             "segmenter": segmenter.name,
             "reads_ground_truth": segmenter.reads_ground_truth,
