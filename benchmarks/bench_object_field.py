@@ -22,6 +22,7 @@ Ground truth is read here only, for scoring; the method stages never see it (exc
 segmenter, whose rows are labelled).
 
     python benchmarks/bench_object_field.py --data data/synthetic --models outputs --work outputs/bench_object_field --scenes all
+    python benchmarks/bench_object_field.py --data data/synthetic --workflow outputs --variants geometric/kom geometric/tracker   # score the workflow's runs
 """
 
 from __future__ import annotations
@@ -143,6 +144,28 @@ def run_variant(scene_dir: Path, model: Path, out: Path, segmenter: str, associa
     return {"scene": scene, "runner": runner, "seconds": t}
 
 
+def workflow_variant(out: Path, scene_dir: Path, name: str, segmenter: str, association: str) -> dict:
+    """The same stages as the workflow ran them (``make benchmark``): folders under
+    ``OUT/<scene>/<segmenter>/<association>/``, stage seconds from its ``benchmark:`` files."""
+    import csv
+    from types import SimpleNamespace
+
+    from inpaint360gs.io.scene import load_scene
+
+    base = out / name / segmenter
+    lay = SimpleNamespace(associate=base / association / "associate", distill=base / association / "distill", removed=base / association / "removed")
+    bench = out / "benchmarks" / name / segmenter
+    t = {}
+    for stage, tsv in (("segment", bench / "segment.tsv"), ("associate", bench / association / "associate.tsv"),
+                       ("distill", bench / association / "distill.tsv"), ("remove", bench / association / "remove.tsv")):  # fmt: skip
+        try:
+            with tsv.open() as f:
+                t[stage] = round(float(next(csv.DictReader(f, delimiter="\t"))["s"]), 1)
+        except (OSError, StopIteration, KeyError, ValueError):
+            t[stage] = None
+    return {"scene": load_scene(scene_dir, load_masks=False), "runner": SimpleNamespace(layout=lay), "seconds": t}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=ROOT / "data" / "synthetic", help="generated scene folders")
@@ -152,6 +175,7 @@ def main() -> int:
     ap.add_argument("--variants", nargs="+", default=["geometric/kom", "oracle/kom", "oracle/tracker"], help="segmenter/association pairs")
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", type=Path, default=None, help="also write the rows here")
+    ap.add_argument("--workflow", type=Path, default=None, help="score what the workflow wrote under this out_dir instead of running the stages")
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT))
     torch.set_num_threads(args.threads)
@@ -166,7 +190,12 @@ def main() -> int:
         targets = [o["id"] for o in meta if o["removal_target"]]
         for variant in args.variants:
             segmenter, association = variant.split("/")
-            r = run_variant(scene_dir, model, args.work / name / variant.replace("/", "_"), segmenter, association, args.threads)
+            if args.workflow is not None:
+                if not (args.workflow / name / segmenter / association / "removed" / "removal.json").is_file():
+                    continue
+                r = workflow_variant(args.workflow, scene_dir, name, segmenter, association)
+            else:
+                r = run_variant(scene_dir, model, args.work / name / variant.replace("/", "_"), segmenter, association, args.threads)
             lay = r["runner"].layout
             cons, match = association_scores(r["scene"], scene_dir, lay.associate, objects)
             field = IdentityField.load(lay.distill)
