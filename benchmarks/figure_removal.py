@@ -1,0 +1,51 @@
+"""The README's figure: one benchmark scene at a few test views, in rows: the 3DGS with the object,
+after removal (the hole left), after the full method (removal + inpainting), and the object-free
+ground truth. Reads what the workflow wrote (``make benchmark``); renders only the 3DGS rows.
+
+    python benchmarks/figure_removal.py --data data/synthetic --out outputs --scene cone --png docs/images/cone_removal.png
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, required=True, help="folder of scene folders")
+    ap.add_argument("--out", type=Path, required=True, help="the workflow's out_dir")
+    ap.add_argument("--scene", required=True)
+    ap.add_argument("--segmenter", default="geometric")
+    ap.add_argument("--views", type=int, default=4, help="test views, spread evenly")
+    ap.add_argument("--png", type=Path, required=True)
+    args = ap.parse_args()
+
+    from PIL import Image
+
+    from inpaint360gs.io.images import write_image
+    from inpaint360gs.io.ply import read_ply
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.render.api import render
+
+    scene = load_scene(args.data / args.scene, load_masks=False)
+    tests = scene.test_views
+    pick = [tests[i] for i in np.linspace(0, len(tests) - 1, min(args.views, len(tests))).round().astype(int)]
+    model = read_ply(args.out / args.scene / "3dgs" / "point_cloud.ply")
+    run = args.out / args.scene / args.segmenter
+    rows = [[], [], [], []]
+    for v in pick:
+        rows[0].append(render(model, v.camera).color.clamp(0, 1).numpy())
+        rows[1].append(np.asarray(Image.open(run / "kom" / "removed_renders" / "color" / f"{v.stem}.png").convert("RGB")) / 255.0)
+        rows[2].append(np.asarray(Image.open(run / "methods" / "full" / "renders" / "test" / f"{v.stem}.png").convert("RGB")) / 255.0)
+        rows[3].append(np.asarray(Image.open(v.image_path).convert("RGB")) / 255.0)
+    grid = np.concatenate([np.concatenate(r, axis=1) for r in rows], axis=0)
+    write_image(args.png, grid)
+    print(f"{args.png}: rows = 3DGS with the object, after removal, after inpainting (full method), ground truth; views {[v.name for v in pick]}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
