@@ -414,3 +414,20 @@ def test_removal_stage_outputs(blobs, tmp_path):
     assert (out / "removal.json").read_bytes() == before
     removal_stage(field, scene, out, ids=[7], overwrite=True)
     assert json.loads((out / "removal.json").read_text())["objects"] == [7]
+
+
+def test_object_body_keeps_sparse_parts_inside_the_body_and_drops_far_strays():
+    """A sparsely reconstructed part of the object (split off the linking graph, within the body's
+    grown bounding box) stays with the body; a stray cluster elsewhere in the scene does not."""
+    from inpaint360gs.remove.removal import object_body
+
+    g = np.arange(0.0, 1.0001, 0.05)
+    dense = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)  # the body: spacing 0.05, linked within 0.2
+    cap = np.array([[0.5, 0.5, 1.22], [0.1, 0.9, 1.23], [0.9, 0.1, 1.22]])  # isolated pieces 0.22 above it
+    stray = 5.0 + np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0]])  # a small cluster far away
+    pts = np.concatenate([dense, cap, stray])
+    n = len(dense)
+    body = object_body(pts, link=4.0, min_part=0.1, near=0.25)
+    assert body[: n + 3].all() and not body[n + 3 :].any()
+    # without the margin the cap goes with the strays (its pieces are far smaller than the body)
+    assert not object_body(pts, link=4.0, min_part=0.1, near=0.0)[n : n + 3].any()

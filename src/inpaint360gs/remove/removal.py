@@ -13,7 +13,9 @@ Removal of a selected object (the authors' public code; Gaussian Grouping uses t
    ever rendered keep their random initial features, and some of them, anywhere in the scene, pass
    the threshold by chance. The selected centres are therefore grouped into connected components
    (centres closer than ``link`` times their median nearest-neighbour spacing are linked), and only
-   components holding at least ``min_part`` of the largest one's Gaussians count as the object;
+   components holding at least ``min_part`` of the largest one's Gaussians count as the object,
+   plus smaller pieces inside that body's bounding box grown by ``body_margin`` of its size (parts
+   3DGS reconstructed sparsely, e.g. the far side of a ball, split off the graph);
 2. so does every Gaussian inside the convex hull (Delaunay) of the object's centres, after a
    statistical outlier filter (centres whose mean distance to their k nearest selected neighbours
    is more than ``outlier_std`` standard deviations above the mean) so that a few stray
@@ -85,6 +87,7 @@ class RemovalConfig:
     outlier_std: float = 2.0  # ... and the cut in standard deviations above the mean distance
     link: float = 4.0  # selected centres closer than this x their median nearest-neighbour spacing are one body
     min_part: float = 0.1  # components with fewer than this share of the largest one's Gaussians are not the object
+    body_margin: float = 0.25  # ... unless they lie inside the body's bounding box grown by this share of its size
     protect_others: bool = True  # keep Gaussians with probability > 0.5 of another (non-background) object
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
 
@@ -169,10 +172,12 @@ def _inlier_points(points: np.ndarray, k: int, n_std: float) -> np.ndarray:
     return points[m <= m.mean() + n_std * m.std()]
 
 
-def object_body(points: np.ndarray, link: float, min_part: float) -> np.ndarray:
+def object_body(points: np.ndarray, link: float, min_part: float, near: float = 0.25) -> np.ndarray:
     """Boolean mask of the ``points`` in the object's body: connected components of the graph that
     links centres closer than ``link`` x the median nearest-neighbour distance, kept when they hold
-    at least ``min_part`` of the largest component's points."""
+    at least ``min_part`` of the largest component's points; a smaller piece is kept too where it
+    lies inside the kept body's bounding box grown by ``near`` x its size (a sparsely reconstructed
+    part of the object, not a stray Gaussian elsewhere in the scene)."""
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
@@ -184,7 +189,10 @@ def object_body(points: np.ndarray, link: float, min_part: float) -> np.ndarray:
     graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
     _, labels = connected_components(graph, directed=False)
     sizes = np.bincount(labels)
-    return sizes[labels] >= min_part * sizes.max()
+    body = sizes[labels] >= min_part * sizes.max()
+    lo, hi = points[body].min(axis=0), points[body].max(axis=0)
+    pad = near * (hi - lo)
+    return body | ((points >= lo - pad) & (points <= hi + pad)).all(axis=1)
 
 
 def inside_hull(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
@@ -220,7 +228,7 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
     for oid, c in col.items():
         sel = (probs[:, c] > cfg.threshold).numpy()
         idx = np.flatnonzero(sel)
-        sel[idx[~object_body(means[idx], cfg.link, cfg.min_part)]] = False
+        sel[idx[~object_body(means[idx], cfg.link, cfg.min_part, cfg.body_margin)]] = False
         hull = np.zeros_like(sel)
         if cfg.hull and sel.sum() >= 5:
             pts = _inlier_points(means[sel], cfg.outlier_k, cfg.outlier_std)
