@@ -67,3 +67,42 @@ def test_slurm_profile_plans_the_jobs(tmp_path):
     p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
     assert p.returncode == 0, p.stderr[-2000:]
     assert "paper_tables" in p.stdout + p.stderr
+
+
+def _workflow(tmp_path: Path, root: Path, *extra: str) -> list[str]:
+    return [sys.executable, "-m", "snakemake", "--cores", "2", "--profile", str(ROOT / "workflow/profiles/local"), "--directory", str(ROOT),
+            "--snakefile", str(ROOT / "Snakefile"), "--config", f"data_dir={root}/data", f"out_dir={root}/out", f"results_dir={root}/results",
+            "scenes=[cone]", "train_scenes=[cone]", "reduced=true", "methods=[]",
+            "train={iterations: 300, schedule_scale: auto, max_gaussians: 20000, backend: auto, extra_args: '--checkpoint-every 20'}", *extra]  # fmt: skip
+
+
+@pytest.mark.slow
+def test_killed_workflow_resumes_training_to_the_uninterrupted_bytes(tmp_path):
+    """SIGTERM to the workflow while 3DGS trains, then the same command again: the rule resumes from
+    the checkpoint (`--resume --overwrite`) and the model is byte-identical to an uninterrupted run."""
+    import os
+    import signal
+    import time
+
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}:{os.environ.get('PATH', '')}"}
+    a, b = tmp_path / "a", tmp_path / "b"
+    p = subprocess.run(_workflow(tmp_path, a), capture_output=True, text=True, cwd=ROOT, env=env, timeout=900)
+    assert p.returncode == 0, p.stderr[-2000:]
+    proc = subprocess.Popen(_workflow(tmp_path, b), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT, env=env, start_new_session=True)
+    ckpt = b / "out" / "cone" / "3dgs" / "checkpoint.pt"
+    deadline = time.monotonic() + 600
+    while not ckpt.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert proc.poll() is None, "the workflow finished before it could be interrupted"
+    os.killpg(proc.pid, signal.SIGTERM)
+    proc.wait(timeout=120)
+    assert not (b / "out" / "cone" / "3dgs" / "metrics.json").exists()
+    p = subprocess.run(_workflow(tmp_path, b), capture_output=True, text=True, cwd=ROOT, env=env, timeout=900)
+    assert p.returncode == 0, p.stderr[-2000:]
+    ply = "out/cone/3dgs/point_cloud.ply"
+    assert (a / ply).read_bytes() == (b / ply).read_bytes()
+    import json
+
+    resumed = json.loads((b / "out" / "cone" / "3dgs" / "metrics.json").read_text())["resumed_from_step"]
+    assert resumed is not None and 0 < resumed < 300
+    assert json.loads((a / "out" / "cone" / "3dgs" / "metrics.json").read_text())["resumed_from_step"] is None

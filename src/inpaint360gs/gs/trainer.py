@@ -130,6 +130,7 @@ class Trainer:
 
     def _fresh_state(self) -> None:
         cfg = self.cfg
+        self.resumed_from: int | None = None
         lrs: dict[str, float | Callable[[int], float]] = dict(learning_rates(cfg, self.extent))
         lrs["means"] = lambda step: means_lr(step, cfg, self.extent)  # exponential decay (3DGS)
         self.loop = OptimizationLoop(
@@ -174,6 +175,7 @@ class Trainer:
         self.log_rows = list(data["log_rows"])
         self.window = _Window(data["window"])
         self.elapsed_before = float(data["elapsed_s"])
+        self.resumed_from = int(self.loop.step_index)
 
     def _train_step(self) -> dict:
         cfg = self.cfg
@@ -324,6 +326,7 @@ class Trainer:
             "backend": cfg.backend,
             "threads": torch.get_num_threads(),
             "seed": cfg.seed,
+            "resumed_from_step": self.resumed_from,  # None: trained from step 0 in one go
             "per_view": ev["per_view"],
         }
         with atomic_path(self.out / "metrics.json") as tmp:
