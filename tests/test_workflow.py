@@ -106,3 +106,12 @@ def test_killed_workflow_resumes_training_to_the_uninterrupted_bytes(tmp_path):
     resumed = json.loads((b / "out" / "cone" / "3dgs" / "metrics.json").read_text())["resumed_from_step"]
     assert resumed is not None and 0 < resumed < 300
     assert json.loads((a / "out" / "cone" / "3dgs" / "metrics.json").read_text())["resumed_from_step"] is None
+
+
+def test_ablations_run_on_their_scene_subset(tmp_path):
+    p = _dry_run(tmp_path, "scenes=[cone,bag]", "train_scenes=[]", "methods=[full,abl_d,abl_a]", "ablation_scenes=[cone]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    # full on both scenes, abl_d and abl_a on cone only (abl_a: its own association on cone)
+    for rule, n in [("inpaint", 4), ("evaluate", 4), ("associate", 3), ("distill", 3)]:
+        assert any(line.split()[:2] == [rule, str(n)] for line in out.splitlines()), (rule, out[-3000:])

@@ -104,7 +104,14 @@ def runs():
     """(scene, segmenter, method) of every run; the oracle segmenter reads the generator's ground
     truth, so it runs on synthetic scenes only."""
     methods = list(config["methods"]) + (SWEEP if "full" in config["methods"] else [])
-    return [(s, g, m) for s in SCENES for g in SEGMENTERS for m in methods if g != "oracle" or s in SYNTHETIC]
+    abl = SCENES if config["ablation_scenes"] == ["all"] else config["ablation_scenes"]
+    return [
+        (s, g, m)
+        for s in SCENES
+        for g in SEGMENTERS
+        for m in methods
+        if (g != "oracle" or s in SYNTHETIC) and (METHODS[m]["kind"] not in ("ablation", "sweep") or s in abl)
+    ]
 
 
 def run_dir(wc):
