@@ -16,7 +16,6 @@ but :meth:`Scene.load_image` refuses it unless called with ``allow_test=True`` (
 from __future__ import annotations
 
 import hashlib
-import json
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,6 +28,7 @@ import torch
 from inpaint360gs.core import layout
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError, TestPixelAccessError
+from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.layout import Split
 from inpaint360gs.io.colmap import image_camera, read_model
 from inpaint360gs.io.images import binary_mask, find_mask, image_size, read_image, read_mask, resize_image, resize_mask, to_float
@@ -261,12 +261,7 @@ def load_scene(
     info: dict = {}
     info_path = root / layout.SCENE_JSON
     if info_path.is_file():
-        try:
-            info = json.loads(info_path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError) as e:
-            raise InputError(f"not valid JSON ({e})", info_path) from None
-        if not isinstance(info, dict):
-            raise InputError("scene.json must hold a JSON object", info_path)
+        info = read_json_object(info_path)
 
     kinds = MASK_KINDS if load_masks is True else (() if load_masks is False else tuple(load_masks))
     masks: dict[str, dict[str, Path]] = {}

@@ -43,6 +43,7 @@ import numpy as np
 import torch
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
@@ -144,12 +145,7 @@ def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     path = folder / DISTILL_JSON
     if not path.is_file():
         return field_
-    try:
-        report = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError(f"not valid JSON ({e})", path) from None
-    if not isinstance(report, dict):
-        raise InputError("distill.json must hold a JSON object", path)
+    report = read_json_object(path)
     n = report.get("num_gaussians")
     if n is not None and n != len(field_.gaussians):
         raise InputError(f"holds {len(field_.gaussians)} Gaussians but {DISTILL_JSON} records {n}: files of two runs?", folder / MODEL_PLY)

@@ -37,6 +37,7 @@ import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
@@ -300,12 +301,7 @@ def associate_stage(
     check_output_dir(out, overwrite)  # before any work
     by_stem = read_segments(segment_dir, scene)
     info_path = Path(segment_dir) / SEGMENT_JSON
-    try:
-        info = json.loads(info_path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError(f"not valid JSON ({e})", info_path) from None
-    if not isinstance(info, dict):
-        raise InputError("segment.json must hold a JSON object", info_path)
+    info = read_json_object(info_path)
     segmenter = info.get("segmenter", "unknown")
     inputs = info.get("inputs") if isinstance(info.get("inputs"), dict) else {}
     made_from = inputs.get("scene_content_sha256")
