@@ -71,9 +71,9 @@ def test_slurm_profile_plans_the_jobs(tmp_path):
 
 def _workflow(tmp_path: Path, root: Path, *extra: str) -> list[str]:
     return [sys.executable, "-m", "snakemake", "--cores", "2", "--profile", str(ROOT / "workflow/profiles/local"), "--directory", str(ROOT),
-            "--snakefile", str(ROOT / "Snakefile"), "--config", f"data_dir={root}/data", f"out_dir={root}/out", f"results_dir={root}/results",
+            "--snakefile", str(ROOT / "Snakefile"), "--config", f"data_dir={tmp_path}/data", f"out_dir={root}/out", f"results_dir={root}/results",
             "scenes=[cone]", "train_scenes=[cone]", "reduced=true", "methods=[]",
-            "train={iterations: 300, schedule_scale: auto, max_gaussians: 20000, backend: auto, extra_args: '--checkpoint-every 20'}", *extra]  # fmt: skip
+            "train={iterations: 200, schedule_scale: auto, max_gaussians: 20000, backend: auto, extra_args: '--checkpoint-every 10'}", *extra]  # fmt: skip
 
 
 @pytest.mark.slow
@@ -104,7 +104,7 @@ def test_killed_workflow_resumes_training_to_the_uninterrupted_bytes(tmp_path):
     import json
 
     resumed = json.loads((b / "out" / "cone" / "3dgs" / "metrics.json").read_text())["resumed_from_step"]
-    assert resumed is not None and 0 < resumed < 300
+    assert resumed is not None and 0 < resumed < 200
     assert json.loads((a / "out" / "cone" / "3dgs" / "metrics.json").read_text())["resumed_from_step"] is None
 
 
