@@ -27,7 +27,6 @@ Printed:
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 from pathlib import Path
@@ -45,11 +44,13 @@ def read_json(path: Path) -> dict | None:
 
 
 def bench_seconds(path: Path) -> float | None:
+    """Mean wall seconds of a Snakemake benchmark file (None when it is missing or unreadable)."""
+    from inpaint360gs.core.errors import InputError
+    from inpaint360gs.report.records import read_benchmark
+
     try:
-        with path.open() as f:
-            rows = list(csv.DictReader(f, delimiter="\t"))
-        return float(rows[0]["s"])
-    except (OSError, KeyError, IndexError, ValueError):
+        return read_benchmark(path)["seconds"]
+    except InputError:
         return None
 
 

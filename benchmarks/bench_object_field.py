@@ -147,10 +147,11 @@ def run_variant(scene_dir: Path, model: Path, out: Path, segmenter: str, associa
 def workflow_variant(out: Path, scene_dir: Path, name: str, segmenter: str, association: str) -> dict:
     """The same stages as the workflow ran them (``make benchmark``): folders under
     ``OUT/<scene>/<segmenter>/<association>/``, stage seconds from its ``benchmark:`` files."""
-    import csv
     from types import SimpleNamespace
 
+    from inpaint360gs.core.errors import InputError
     from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.report.records import read_benchmark
 
     base = out / name / segmenter
     lay = SimpleNamespace(associate=base / association / "associate", distill=base / association / "distill", removed=base / association / "removed")
@@ -159,9 +160,8 @@ def workflow_variant(out: Path, scene_dir: Path, name: str, segmenter: str, asso
     for stage, tsv in (("segment", bench / "segment.tsv"), ("associate", bench / association / "associate.tsv"),
                        ("distill", bench / association / "distill.tsv"), ("remove", bench / association / "remove.tsv")):  # fmt: skip
         try:
-            with tsv.open() as f:
-                t[stage] = round(float(next(csv.DictReader(f, delimiter="\t"))["s"]), 1)
-        except (OSError, StopIteration, KeyError, ValueError):
+            t[stage] = round(read_benchmark(tsv)["seconds"], 1)
+        except InputError:
             t[stage] = None
     return {"scene": load_scene(scene_dir, load_masks=False), "runner": SimpleNamespace(layout=lay), "seconds": t}
 

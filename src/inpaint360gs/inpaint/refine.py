@@ -185,8 +185,9 @@ def refine(
     box grown by ``region_margin`` x its diagonal — ablation e): only those whose centre projects
     into a mask. Everything else is static, so every term of Eq. 6 can be evaluated on each view's
     crop around its mask (the bounding box grown by half its size): outside it nothing can change.
-    On a CPU this makes a step ~5x cheaper (the static Gaussians are culled to the crop once per view
-    and neither projected for gradients nor stepped by Adam)."""
+    On a CPU this makes the 2000 steps ~2.8x cheaper (full-size cone: 565 s -> 204 s; the static
+    Gaussians are culled to the crop once per view and neither projected for gradients nor stepped
+    by Adam)."""
     cfg = (cfg or RefineConfig()).resolved()
     views = [v for v in views if v.mask.any()]
     if not views:
