@@ -27,8 +27,10 @@ $(STAMP): pyproject.toml
 benchmark: $(STAMP)
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/snakemake --cores $(CORES) --profile workflow/profiles/local $(SNAKEMAKE_ARGS)
 
+# One pytest worker per core (pytest-xdist); the slow end-to-end tests are spread over the workers.
+TEST_WORKERS ?= auto
 test: $(STAMP)
-	$(VENV)/bin/python -m pytest -q
+	$(VENV)/bin/python -m pytest -q -n $(TEST_WORKERS) --dist worksteal
 
 clean-env:
 	rm -rf $(VENV)

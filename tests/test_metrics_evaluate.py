@@ -127,6 +127,18 @@ def test_fid_with_a_weights_file_and_one_net_only(scene, generated_inception):  
     assert math.isfinite(res["scene_metrics"]["fd_vgg16"])  # VGG features even without VGG LPIPS
 
 
+def test_the_output_folder_of_render_is_read_through_its_color_subfolder(scene, tmp_path):
+    """`inpaint360gs render` writes color/ and depth/ under its OUT: evaluate takes that OUT as is."""
+    root, renders = scene
+    out = tmp_path / "render_out"
+    shutil.copytree(renders, out / "color")
+    (out / "depth").mkdir()
+    (out / "render.json").write_text("{}")
+    a = evaluate_renders(out, root, nets=("alex",))
+    b = evaluate_renders(renders, root, nets=("alex",))
+    assert a["per_view"] == b["per_view"]
+
+
 def test_input_errors(scene, tmp_path):
     root, renders = scene
     extra = renders / "test_009.png"

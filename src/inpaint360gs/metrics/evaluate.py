@@ -83,6 +83,8 @@ def _match_renders(renders_dir: Path, views: list[View]) -> dict[str, Path]:
     """View name -> render file; InputError for a missing, extra, duplicate or non-PNG render."""
     if not renders_dir.is_dir():
         raise InputError("renders folder not found", renders_dir)
+    if (renders_dir / "color").is_dir() and not any(p.suffix.lower() == ".png" for p in renders_dir.iterdir()):
+        renders_dir = renders_dir / "color"  # the output folder of `inpaint360gs render` (color/, depth/)
     by_stem = {v.stem: v for v in views}
     found: dict[str, Path] = {}
     for p in sorted(renders_dir.iterdir()):
