@@ -30,7 +30,7 @@ benchmark: $(STAMP)
 # One pytest worker per core (pytest-xdist); the slow end-to-end tests are spread over the workers.
 TEST_WORKERS ?= auto
 test: $(STAMP)
-	$(VENV)/bin/python -m pytest -q -n $(TEST_WORKERS) --dist worksteal
+	$(VENV)/bin/python -m pytest -q -n $(TEST_WORKERS) --maxprocesses 8 --dist worksteal
 
 clean-env:
 	rm -rf $(VENV)
