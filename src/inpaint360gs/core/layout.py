@@ -27,6 +27,8 @@ SPARSE_DIR = "sparse/0"
 UNSEEN_MASK_DIR = "unseen_mask"
 OBJECT_MASK_DIR = "object_mask"
 SCENE_JSON = "scene.json"
+# what `inpaint360gs render` writes under its output folder: color/<stem>.png, depth/, render.json
+RENDER_COLOR_DIR = "color"
 GT_DIR = "gt"
 
 TEST_PREFIX = "test_"

@@ -36,6 +36,7 @@ from pathlib import Path
 import torch
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core import layout
 from inpaint360gs.core.layout import IMAGE_SUFFIXES, NO_GROUND_TRUTH
 from inpaint360gs.io.images import read_image, to_float
 from inpaint360gs.io.scene import Scene, View, load_scene
@@ -83,8 +84,9 @@ def _match_renders(renders_dir: Path, views: list[View]) -> dict[str, Path]:
     """View name -> render file; InputError for a missing, extra, duplicate or non-PNG render."""
     if not renders_dir.is_dir():
         raise InputError("renders folder not found", renders_dir)
-    if (renders_dir / "color").is_dir() and not any(p.suffix.lower() == ".png" for p in renders_dir.iterdir()):
-        renders_dir = renders_dir / "color"  # the output folder of `inpaint360gs render` (color/, depth/)
+    color = renders_dir / layout.RENDER_COLOR_DIR  # given the output folder of `inpaint360gs render`
+    if color.is_dir() and not any(p.suffix.lower() == ".png" for p in renders_dir.iterdir()):
+        renders_dir = color
     by_stem = {v.stem: v for v in views}
     found: dict[str, Path] = {}
     for p in sorted(renders_dir.iterdir()):

@@ -10,6 +10,7 @@ from pathlib import Path
 import torch
 from tqdm import tqdm
 
+from inpaint360gs.core import layout
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_depth, write_image
@@ -37,7 +38,7 @@ def render_views(
     with atomic_dir(out, overwrite=overwrite) as tmp:
         for v in tqdm(views, desc="render", disable=not (views and progress)):
             o = render(model, v.camera, sh_degree=sh_degree, background=background, backend=backend)
-            write_image(tmp / "color" / f"{v.stem}.png", o.color)
+            write_image(tmp / layout.RENDER_COLOR_DIR / f"{v.stem}.png", o.color)
             scales[v.name] = write_depth(tmp / "depth" / v.stem, o.depth)
             empty += int(bool((o.alpha < 1.0 / 255).all()))
         info = {**(meta or {}), "scene": str(scene.root), "views": [v.name for v in views], "resize": scene.resize, "depth_png_scale": scales}
