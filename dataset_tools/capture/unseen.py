@@ -10,7 +10,9 @@ only the built scene and an object mask per training view:
 2. back-project each pixel to its surface point X;
 3. a training view sees X when X projects in front of it, inside its frame and outside its object
    mask (optionally also not behind the surface that view's own sparse depth shows);
-4. X is unseen when no training view sees it.
+4. X is unseen when no training view sees it and at least one has it inside its frame under the object
+   mask: the objects hid it. Surface outside every training frame is no inpainting target (the same rule
+   as the synthetic generator's exact masks, docs/architecture.md "Scene format").
 
 Limits (measured against the synthetic generator's exact masks, see the README here): the sparse
 depth is only as good as the points around the hole: it is exact for a planar floor, but smooths
@@ -140,6 +142,7 @@ def derive_unseen_masks(
     for tv in tests:
         X = _backproject(tv, sparse_depth(tv, cfg.min_points)).reshape(-1, 3)
         seen = np.zeros(len(X), bool)
+        hidden = np.zeros(len(X), bool)  # under some in-frame view's object mask
         for v in trains:
             xc = X @ v.R.T + v.t
             z = xc[:, 2]
@@ -149,11 +152,13 @@ def derive_unseen_masks(
             w = np.floor(uvw[:, 1] / np.where(front, z, 1.0)).astype(np.int64)
             ok = front & (u >= 0) & (u < v.width) & (w >= 0) & (w < v.height) & ~seen
             idx = np.flatnonzero(ok)
-            vis = ~occluders[v.name][w[idx], u[idx]]
+            under = occluders[v.name][w[idx], u[idx]]
+            hidden[idx[under]] = True
+            vis = ~under
             if cfg.depth_test:
                 vis &= z[idx] <= train_depth[v.name][w[idx], u[idx]] * (1.0 + cfg.depth_tolerance)
             seen[idx[vis]] = True
-        out[tv.name] = ~seen.reshape(tv.height, tv.width)
+        out[tv.name] = (hidden & ~seen).reshape(tv.height, tv.width)
     return out
 
 

@@ -4,7 +4,7 @@ Layout (docs/architecture.md, "Scene format"; names in ``inpaint360gs.core.layou
 
     <name>/images/IMG_%04d.png, test_%04d.png   object-inclusive orbit captures, object-free captures
     <name>/sparse/0/                            COLMAP binary model from the true poses (pycolmap)
-    <name>/unseen_mask/test_%04d.png            255 = never seen by an object-inclusive capture
+    <name>/unseen_mask/test_%04d.png            255 = hidden by the removed objects from every object-inclusive capture
     <name>/gt/cameras.json                      intrinsics and R, t (world->camera) of every image
     <name>/gt/instance/<stem>.png               uint8 object id at each pixel centre (0 = background)
     <name>/gt/depth/<stem>.npy                  float32 z-depth of each pixel-centre ray

@@ -60,13 +60,21 @@ def nearest_first(views: list[View], anchor: View) -> list[View]:
 
 
 def unseen_mask(scene, view: View, points: np.ndarray) -> np.ndarray:
-    """(H, W) uint8 for an object-free ``view``: 255 where the surface point ``points[i, j]`` (what the view sees
-    at the pixel centre without the removal targets) is visible from no object-inclusive capture while the
-    objects are present; 0 elsewhere.
+    """(H, W) uint8 for an object-free ``view``: 255 where the removed objects hid the surface, 0 elsewhere.
+
+    A surface point ``points[i, j]`` (what the view sees at the pixel centre without the removal targets) is
+    unseen when no object-inclusive capture sees it while the objects are present, yet at least one of them
+    would see it once they are gone: the objects are why it was never observed ("the unseen region after object removal",
+    supp. Sec. A). Surface that no capture sees even without the objects (outside every frustum, or behind the
+    room's own geometry) is no inpainting target: every method can only extrapolate there, so it is left out.
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    seen = seen_by_views(scene.world_full, nearest_first(scene.inclusive_views, view), pts)
-    return np.where(seen, 0, 255).astype(np.uint8).reshape(view.camera.height, view.camera.width)
+    views = nearest_first(scene.inclusive_views, view)
+    seen = seen_by_views(scene.world_full, views, pts)
+    rest = np.nonzero(~seen)[0]
+    hidden = np.zeros(len(pts), dtype=bool)
+    hidden[rest] = seen_by_views(scene.world_free, views, pts[rest])
+    return np.where(hidden, 255, 0).astype(np.uint8).reshape(view.camera.height, view.camera.width)
 
 
 def seen_by_object_inclusive_views(scene: "str | Path | object", points: np.ndarray, tol: float = 0.0) -> np.ndarray:

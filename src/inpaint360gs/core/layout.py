@@ -6,7 +6,7 @@ dataset)::
     <scene>/images/          all captures; object-free ground-truth captures are named test_*
     <scene>/images_<r>/      optional copies downscaled by r
     <scene>/sparse/0/        one COLMAP model registering ALL images, points from training views only
-    <scene>/unseen_mask/     per test_ image: 255 = never seen by a training camera while the objects were present
+    <scene>/unseen_mask/     per test_ image: 255 = hidden by the removed objects from every training camera
     <scene>/object_mask/     associated per-view object-id masks (written by the association stage)
     <scene>/scene.json       objects, removal targets with a click each, provenance
     <scene>/gt/              synthetic scenes only: true poses, instance masks, depth, object list
