@@ -243,6 +243,19 @@ def test_other_objects_are_protected_unless_that_is_turned_off(hull_case):
     assert not res.removed_mask.numpy()[part == "obj7"].any()
 
 
+def test_background_in_the_hull_is_kept_when_asked(hull_case):
+    """protect_background: the hull keeps what the field calls background (the floor an object stands on),
+    still takes what has no opinion; off by default."""
+    field, part = hull_case
+    res = remove_objects(field, [3], RemovalConfig(protect_background=0.5))
+    removed = res.removed_mask.numpy()
+    assert not removed[part == "inside_background"].any()
+    assert removed[part == "inside_no_opinion"].all() and removed[part == "obj3"].all()
+    assert res.counts["3"] == {"by_probability": 406, "by_hull": 20}
+    # a threshold above every background probability protects nothing
+    assert torch.equal(remove_objects(field, [3], RemovalConfig(protect_background=1.0)).removed_mask, remove_objects(field, [3]).removed_mask)
+
+
 def test_two_objects_at_once(hull_case):
     field, part = hull_case
     res = remove_objects(field, [7, 3])

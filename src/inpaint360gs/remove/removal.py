@@ -21,7 +21,9 @@ Removal of a selected object (the authors' public code; Gaussian Grouping uses t
    is more than ``outlier_std`` standard deviations above the mean) so that a few stray
    Gaussians do not inflate the hull. Gaussians the field confidently assigns to ANOTHER object
    (probability above 0.5) are kept (``protect_others``): the hull of a fruit must not take a
-   bite out of the plate it lies on.
+   bite out of the plate it lies on. Optionally (``protect_background``, off by default) the hull
+   also keeps Gaussians the field gives a background probability above that value: the floor under
+   an object whose hull rests on it.
 
 The removed Gaussians are kept in ``removed.ply`` (with their features) so that they can be put back
 (occluders are removed and reinserted around the inpainting stage).
@@ -90,6 +92,10 @@ class RemovalConfig:
     min_part: float = 0.1  # components with fewer than this share of the largest one's Gaussians are not the object
     body_margin: float = 0.25  # ... unless they lie inside the body's bounding box grown by this share of its size
     protect_others: bool = True  # keep Gaussians with probability > 0.5 of another (non-background) object
+    # The hull step keeps Gaussians whose background probability exceeds this (None = off, the authors'
+    # code). The hull of an object standing on the floor reaches down to the floor and takes the floor
+    # Gaussians under it: holes to inpaint and collateral (docs/architecture.md, "Removal").
+    protect_background: float | None = None
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
 
 
@@ -219,6 +225,9 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
     means = field_.gaussians.means.detach().cpu().double().numpy()
     others = [i for i, oid in enumerate(field_.object_ids) if oid != 0 and oid not in col]
     protected = (probs[:, others] > 0.5).any(dim=1).numpy() if (cfg.protect_others and others) else np.zeros(len(means), bool)
+    if cfg.protect_background is not None and 0 not in field_.object_ids:
+        raise InputError("protect_background needs a field with a background class (id 0)", "--protect-background")
+    background = field_.object_ids.index(0) if 0 in field_.object_ids else None
     remove = np.zeros(len(means), dtype=bool)
     counts = {}
     for oid, c in col.items():
@@ -229,6 +238,8 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
         if cfg.hull and sel.sum() >= 5:
             pts = _inlier_points(means[sel], cfg.outlier_k, cfg.outlier_std)
             hull = inside_hull(pts, means) & ~sel & ~protected
+        if cfg.protect_background is not None:
+            hull &= ~(probs[:, background] > cfg.protect_background).numpy()
         remove |= sel | hull
         counts[str(oid)] = {"by_probability": int(sel.sum()), "by_hull": int(hull.sum())}
     if not remove.any():
