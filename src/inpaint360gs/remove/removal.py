@@ -224,10 +224,10 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
     col = {oid: field_.object_ids.index(oid) for oid in object_ids}
     means = field_.gaussians.means.detach().cpu().double().numpy()
     others = [i for i, oid in enumerate(field_.object_ids) if oid != 0 and oid not in col]
+    # what the hull step must keep: Gaussians of other objects and, when asked, confident background
     protected = (probs[:, others] > 0.5).any(dim=1).numpy() if (cfg.protect_others and others) else np.zeros(len(means), bool)
-    if cfg.protect_background is not None and 0 not in field_.object_ids:
-        raise InputError("protect_background needs a field with a background class (id 0)", "--protect-background")
-    background = field_.object_ids.index(0) if 0 in field_.object_ids else None
+    if cfg.protect_background is not None and 0 in field_.object_ids:
+        protected |= (probs[:, field_.object_ids.index(0)] > cfg.protect_background).numpy()
     remove = np.zeros(len(means), dtype=bool)
     counts = {}
     for oid, c in col.items():
@@ -238,8 +238,6 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
         if cfg.hull and sel.sum() >= 5:
             pts = _inlier_points(means[sel], cfg.outlier_k, cfg.outlier_std)
             hull = inside_hull(pts, means) & ~sel & ~protected
-        if cfg.protect_background is not None:
-            hull &= ~(probs[:, background] > cfg.protect_background).numpy()
         remove |= sel | hull
         counts[str(oid)] = {"by_probability": int(sel.sum()), "by_hull": int(hull.sum())}
     if not remove.any():
