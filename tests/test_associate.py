@@ -118,3 +118,34 @@ def test_bad_inputs(blobs):
         associate(segs, scene, far)
     with pytest.raises(InputError, match="unknown association method"):
         associate(segs, scene, model, AssociationConfig(method="deva"))
+
+
+def test_database_is_compared_through_what_the_view_can_label():
+    """An object of 400 Gaussians segmented whole in the first view, then only as a 20 x 4 band (80
+    of its Gaussians; the rest hidden or missed by the segmenter). Eq. 2 against the whole
+    accumulated set scores 80 / 400 = 0.2, not above sigma: each band founds a new object.
+    Compared through the Gaussians the view labels, the band inherits the object's id."""
+    from inpaint360gs.core.camera import Camera
+    from inpaint360gs.segment.associate import _kom
+
+    cam = Camera(R=torch.eye(3, dtype=torch.float64), t=torch.zeros(3, dtype=torch.float64), fx=50.0, fy=50.0, cx=0.0, cy=0.0, width=40, height=40)
+    ys, xs = np.mgrid[10:30, 10:30].reshape(2, -1) + 0.5  # one Gaussian per pixel, the object at z ~ 1 ...
+    z = 1.0 + 0.001 * np.random.default_rng(0).random(ys.size)
+    near = np.stack([xs / cam.fx * z, ys / cam.fy * z, z], axis=1)
+    far = np.stack([xs / cam.fx * 3.0, ys / cam.fy * 3.0, np.full(ys.size, 3.0)], axis=1)  # ... the wall behind it at z = 3
+    means = np.concatenate([near, far])
+    segs = []
+    for band in (None, 0, 1, 2, 3):
+        seg = np.zeros((40, 40), np.uint16)
+        if band is None:
+            seg[10:30, 10:30] = 7
+        else:
+            seg[10 + 5 * band : 14 + 5 * band, 10:30] = 3 + band  # 80 pixels
+        segs.append(seg)
+    cams = [cam] * len(segs)
+    out, sizes = _kom(segs, cams, means, AssociationConfig(compare="visible").resolved())
+    assert len(sizes) == 1 and sizes[0] == 400 and all(set(np.unique(o)) == {0, 1} for o in out)
+    out, sizes = _kom(segs, cams, means, AssociationConfig(compare="all").resolved())
+    assert len(sizes) == 5  # the literal reading: every band a new object
+    with pytest.raises(InputError, match="comparison"):
+        AssociationConfig(compare="nearest").resolved()

@@ -42,7 +42,7 @@ def _plane_depth(h=H, w=W, normal=(0.1, -0.3, -0.8), offset=-1.5, f=50.0):
 
 
 def test_registry_and_defaults():
-    assert set(INPAINTERS) == {"telea", "ns", "harmonic", "plane", "patchmatch", "lama"}
+    assert set(INPAINTERS) == {"telea", "ns", "harmonic", "plane", "patchmatch", "patchmatch_harmonic", "lama"}
     assert DEFAULT_RGB in RGB_METHODS and DEFAULT_DEPTH in DEPTH_METHODS
     assert "plane" not in RGB_METHODS
 
@@ -97,7 +97,7 @@ def test_constant_image_is_reproduced(method):
     img[...] = (0.2, 0.55, 0.9)
     mask = _box_mask()
     out = inpaint_rgb(img, mask, method)
-    tol = 0.5 / 255 + 1e-6 if method == "patchmatch" else 1e-5  # patchmatch returns 8 bit
+    tol = 0.5 / 255 + 1e-6 if method.startswith("patchmatch") else 1e-5  # patchmatch returns 8 bit
     assert np.abs(out - img).max() <= tol
 
 
@@ -173,6 +173,27 @@ def test_plane_is_robust_to_noise():
     mask = _box_mask()
     out = inpaint_depth(noisy, mask, "plane")
     assert np.median(np.abs(out - depth)[mask] / depth[mask]) < 0.004
+
+
+def test_patchmatch_harmonic_is_patchmatch_texture_on_membrane_low_frequencies():
+    """A bright shading peak inside the hole with fine texture on top: PatchMatch alone can only
+    copy the darker surroundings, the membrane fill is smooth; their combination keeps PatchMatch's
+    texture and the membrane's brightness. The fill is exactly pm + G_sigma * (harmonic - pm)."""
+    import cv2
+
+    rng = np.random.default_rng(0)
+    v, u = np.mgrid[0:H, 0:W].astype(np.float64)
+    shade = 0.25 + 0.6 * np.exp(-((u - 32) ** 2 + (v - 24) ** 2) / (2 * 14**2))
+    tex = cv2.GaussianBlur(rng.random((H, W)), (0, 0), 0.7)
+    img = np.stack([shade, 0.8 * shade, 0.6 * shade], axis=-1) + ((tex - tex.mean()) / tex.std() * 0.04)[..., None]
+    mask = _box_mask(16, 32, 22, 42)
+    out = {m: inpaint_rgb(img, mask, m, seed=3) for m in ("patchmatch", "harmonic", "patchmatch_harmonic")}
+    low = cv2.GaussianBlur(out["harmonic"] - out["patchmatch"], (0, 0), 3.0, borderType=cv2.BORDER_REFLECT)
+    assert np.allclose(out["patchmatch_harmonic"][mask], np.clip(out["patchmatch"] + low, 0, 1)[mask], atol=1e-12)
+    rmse = {m: float(np.sqrt(((o - img)[mask] ** 2).mean())) for m, o in out.items()}
+    detail = {m: float(np.abs(o - cv2.GaussianBlur(o, (0, 0), 2.0))[mask].mean()) for m, o in out.items()}
+    assert rmse["patchmatch_harmonic"] < 0.6 * rmse["patchmatch"], rmse
+    assert detail["patchmatch_harmonic"] > 3 * detail["harmonic"] and detail["patchmatch_harmonic"] > 0.8 * detail["patchmatch"], detail
 
 
 def test_patchmatch_is_seeded():

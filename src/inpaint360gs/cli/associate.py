@@ -21,6 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--variant", default=d.variant, choices=["paper", "code"], help="paper: GS-IoU 0.2 on plain IoU (default); code: the authors' public code (0.1 on |A∩B|/(|B|+|A∩B|), nearest 30%%)")
     parser.add_argument("--sigma", type=fraction, default=None, help="GS-IoU threshold (default: the variant's)")
     parser.add_argument("--keep-near", type=fraction, default=None, help="keep this nearest fraction of each patch's near cluster (default: the variant's)")
+    parser.add_argument("--compare", default=d.compare, choices=["visible", "all"],
+                        help="visible: each database set through the Gaussians the current view labels (default); all: the whole set (Eq. 2 read literally; objects split once their set outgrows 1/sigma views' worth)")
     parser.add_argument("--patch", type=positive_int, default=d.patch, help=f"patch size in pixels (default {d.patch})")
     parser.add_argument("--min-segment-pixels", type=nonneg_int, default=d.min_segment_pixels)
     parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor of the scene")
@@ -36,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "MODEL": args.model, "SEGMENTS": args.segments})  # --overwrite replaces OUT as a whole
     cfg = AssociationConfig(
         method=args.method, variant=args.variant, sigma=args.sigma, keep_near=args.keep_near,
-        patch=args.patch, min_segment_pixels=args.min_segment_pixels,
+        patch=args.patch, min_segment_pixels=args.min_segment_pixels, compare=args.compare,
     ).resolved()  # fmt: skip
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     model = read_ply(args.model)
