@@ -256,6 +256,22 @@ def test_background_in_the_hull_is_kept_when_asked(hull_case):
     assert torch.equal(remove_objects(field, [3], RemovalConfig(protect_background=1.0)).removed_mask, remove_objects(field, [3]).removed_mask)
 
 
+def test_background_on_the_support_plane_is_kept_by_the_hull(hull_case):
+    """protect_support (on by default): background Gaussians within 0.008 R of the support plane stay,
+    background higher up and what has no opinion still go; no plane (heights None): no guard."""
+    field, part = hull_case
+    means = field.gaussians.means.numpy().astype(np.float64)
+    on_plane = remove_objects(field, [3], heights=means[:, 2], radius=0.16 / 0.008)  # plane z = 0, band |z| < 0.16
+    removed = on_plane.removed_mask.numpy()
+    assert not removed[part == "inside_background"].any()
+    assert removed[part == "inside_no_opinion"].all() and removed[part == "obj3"].all()
+    assert on_plane.counts["3"] == {"by_probability": 406, "by_hull": 20}
+    below = remove_objects(field, [3], heights=means[:, 2] + 1.0, radius=0.16 / 0.008)  # the band well below the ball
+    assert below.removed_mask.numpy()[part == "inside_background"].all()
+    assert torch.equal(remove_objects(field, [3], RemovalConfig(protect_support=None), heights=means[:, 2], radius=20.0).removed_mask,
+                       remove_objects(field, [3]).removed_mask)
+
+
 def test_two_objects_at_once(hull_case):
     field, part = hull_case
     res = remove_objects(field, [7, 3])

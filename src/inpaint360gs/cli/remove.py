@@ -24,6 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_click_arguments(parser)
     parser.add_argument("--threshold", type=fraction, default=d.threshold, help=f"remove Gaussians whose probability of the object exceeds this (default {d.threshold})")
     parser.add_argument("--no-hull", action="store_true", help="do not also remove what lies inside the convex hull of the selected Gaussians")
+    parser.add_argument("--no-protect-support", action="store_true",
+                        help="let the hull step take background Gaussians on the support plane too (the authors' code; default: kept)")
     parser.add_argument("--protect-background", type=fraction, default=None, metavar="P", help="the hull step keeps Gaussians whose background probability exceeds P (default: off, as the authors' code)")
     parser.add_argument("--resize", type=positive_int, default=1)
     parser.add_argument("--llffhold", type=nonneg_int, default=8)
@@ -41,7 +43,8 @@ def run(args: argparse.Namespace) -> int:
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "DISTILL": args.distill})  # --overwrite replaces OUT as a whole
     check_output_dir(args.out, args.overwrite)
     clicks = [Click.parse(c) for c in args.click]
-    cfg = RemovalConfig(threshold=args.threshold, hull=not args.no_hull, protect_background=args.protect_background)
+    cfg = RemovalConfig(threshold=args.threshold, hull=not args.no_hull, protect_background=args.protect_background,
+                        protect_support=None if args.no_protect_support else RemovalConfig.protect_support)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     where = "--click"
     if not clicks and not args.id:  # as `inpaint360gs run`: the clicks scene.json names

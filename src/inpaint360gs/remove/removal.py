@@ -21,9 +21,12 @@ Removal of a selected object (the authors' public code; Gaussian Grouping uses t
    is more than ``outlier_std`` standard deviations above the mean) so that a few stray
    Gaussians do not inflate the hull. Gaussians the field confidently assigns to ANOTHER object
    (probability above 0.5) are kept (``protect_others``): the hull of a fruit must not take a
-   bite out of the plate it lies on. Optionally (``protect_background``, off by default) the hull
-   also keeps Gaussians the field gives a background probability above that value: the floor under
-   an object whose hull rests on it.
+   bite out of the plate it lies on. Nor does it take the floor: Gaussians within ``protect_support``
+   (0.008 R) of the support plane that the field calls background stay (``protect_support``; the
+   hull of an object standing on the floor reaches down to it, and the floor Gaussians under a
+   wide object such as the benchmark's car otherwise go with it). Optionally (``protect_background``,
+   off by default) the hull also keeps every Gaussian the field gives a background probability
+   above that value, at any height.
 
 The removed Gaussians are kept in ``removed.ply`` (with their features) so that they can be put back
 (occluders are removed and reinserted around the inpainting stage).
@@ -96,6 +99,12 @@ class RemovalConfig:
     # code). The hull of an object standing on the floor reaches down to the floor and takes the floor
     # Gaussians under it: holes to inpaint and collateral (docs/architecture.md, "Removal").
     protect_background: float | None = None
+    # The hull step keeps Gaussians within this height of the support plane (x the orbit radius R;
+    # the geometric segmenter's tau) that the field calls background (probability > 0.5): the floor
+    # an object stands on. None = off (the authors' code). The plane is the segmenter's (RANSAC on
+    # opaque centres, segment/frame.py); without one (no orbit, no plane) the guard is skipped and
+    # removal.json says why.
+    protect_support: float | None = 0.008
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
 
 
@@ -211,8 +220,28 @@ def inside_hull(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
     return tri.find_simplex(queries) >= 0
 
 
-def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalConfig | None = None) -> Removal:
-    """Remove the objects ``object_ids`` from the field's Gaussians (see the module docstring)."""
+def support_heights(field_: IdentityField, scene: Scene) -> tuple[np.ndarray | None, float, str]:
+    """(height of every Gaussian above the support plane, orbit radius R, note) from the training
+    cameras and the opaque centres, as the geometric segmenter finds them; (None, 0, why) without a plane."""
+    from inpaint360gs.segment.cluster3d import ClusterConfig
+    from inpaint360gs.segment.frame import scene_frame
+
+    g = field_.gaussians
+    means = g.means.detach().cpu().double().numpy()
+    cc = ClusterConfig()
+    try:
+        frame = scene_frame([v.camera for v in scene.train_views], means, g.opacities.detach().cpu().numpy(),
+                            min_opacity=cc.plane_min_opacity, tol_frac=cc.plane_tol, tries=cc.plane_tries, max_tilt_deg=cc.plane_max_tilt_deg)  # fmt: skip
+    except InputError as e:
+        return None, 0.0, f"support guard skipped: {e}"
+    return frame.heights(means), frame.radius, "support plane found"
+
+
+def remove_objects(
+    field_: IdentityField, object_ids: list[int], cfg: RemovalConfig | None = None, *, heights: np.ndarray | None = None, radius: float = 0.0
+) -> Removal:
+    """Remove the objects ``object_ids`` from the field's Gaussians (see the module docstring);
+    ``heights`` (N,) above the support plane and the orbit ``radius`` enable ``protect_support``."""
     cfg = cfg or RemovalConfig()
     known = set(field_.object_ids) - {0}
     for oid in object_ids:
@@ -228,6 +257,9 @@ def remove_objects(field_: IdentityField, object_ids: list[int], cfg: RemovalCon
     protected = (probs[:, others] > 0.5).any(dim=1).numpy() if (cfg.protect_others and others) else np.zeros(len(means), bool)
     if cfg.protect_background is not None and 0 in field_.object_ids:
         protected |= (probs[:, field_.object_ids.index(0)] > cfg.protect_background).numpy()
+    if cfg.protect_support is not None and heights is not None and 0 in field_.object_ids:
+        floor = np.abs(heights) < cfg.protect_support * radius
+        protected |= floor & (probs[:, field_.object_ids.index(0)] > 0.5).numpy()
     remove = np.zeros(len(means), dtype=bool)
     counts = {}
     for oid, c in col.items():
@@ -279,7 +311,8 @@ def removal_stage(
     clicks = list(clicks or [])
     targets = resolve_clicks(field_, scene, clicks) + list(ids or [])
     targets = list(dict.fromkeys(targets))  # keep order, drop repeats
-    res = remove_objects(field_, targets, cfg)
+    heights, radius, support_note = support_heights(field_, scene) if cfg.protect_support is not None else (None, 0.0, "support guard off")
+    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius)
     views = scene.train_views
     masks = fill_masks(field_.gaussians, res.removed_mask, views, cfg.mask_share, backend)
     stack = np.stack([masks[v.name] for v in views])
@@ -293,6 +326,7 @@ def removal_stage(
         "amcr_percent": amcr(stack),
         "mask_rule": f"a pixel is to be filled when removed Gaussians gave at least {cfg.mask_share:g} of its colour in the original model",
         "config": asdict(cfg),
+        "support": support_note,
         "seconds": round(time.perf_counter() - t0, 2),
     }
     with atomic_dir(out, overwrite=overwrite) as tmp:
