@@ -64,8 +64,9 @@ Methods (``INPAINTERS``; ``make_inpainter(name, **options)``):
 
 Defaults, measured on the embedded benchmark's ground truth (``benchmarks/bench_inpainters.py``,
 ``results/benchmarks/inpainters.txt``): the object-free ``test_*`` views inpainted inside their
-unseen masks and scored inside the mask; 56 views of synthetic cone, toys (256x192) and reduced
-cone, fruits, toys (128x96); LaMa not measured (no checkpoint here).
+unseen masks and scored inside the mask (colour: all ten scenes, 160 views; depth and the earlier
+colour run: 56 views of synthetic cone, toys at 256x192 and reduced cone, fruits, toys at 128x96,
+with the first unseen-mask rule); LaMa not measured (no checkpoint here).
 
 - **RGB: ``patchmatch_harmonic``.** All ten scenes at 256x192 (160 test views), PSNR over mask
   pixels / ROI LPIPS (VGG): patchmatch_harmonic 19.42 dB / 0.290 (sigma 2: 19.53 / 0.289, sigma 4:

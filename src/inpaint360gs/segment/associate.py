@@ -189,10 +189,10 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
         group = labels * ((-(-cam.height // cfg.patch)) * tiles_x) + (v // cfg.patch) * tiles_x + (u // cfg.patch)
         near = near_cluster(group, z, cfg.keep_near)
         lut = np.zeros(int(seg.max()) + 1, dtype=np.uint8)
-        # "visible": the database seen from this view, each set restricted to the Gaussians this view can label
-        labelable = np.unique(idx[near])
-        pos = np.full(n, -1, dtype=np.int64)
-        pos[labelable] = np.arange(labelable.size)
+        if cfg.compare == "visible":  # the database seen from this view: each set restricted to what this view labels
+            labelable = np.unique(idx[near])
+            pos = np.full(n, -1, dtype=np.int64)
+            pos[labelable] = np.arange(labelable.size)
         for s in ids:
             members = np.unique(idx[near & (labels == s)])
             if members.size == 0:
