@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import torch
-from segment_scenes import best_iou, blob, build, cameras, ground, plate_scene, true_labels, two_blobs, write_scene
+from segment_scenes import best_iou, blob, build, cameras, disc, ground, plate_scene, true_labels, two_blobs, write_scene
 
 from inpaint360gs.cli import main
 from inpaint360gs.core.errors import InputError
@@ -117,6 +117,24 @@ def test_a_single_object_on_a_layer_is_kept_whole():
     means, opac, maxs = _arrays(model)
     c = cluster_gaussians(means, opac, maxs, scene_frame(cameras(), means, opac), ClusterConfig())
     assert c.count == 1 and c.support == []
+
+
+def test_parts_stacked_over_each_other_on_a_layer_stay_one_object():
+    """A cone-like object: a base plate, a body on it, and a top separated from the body by a gap
+    wider than the peeling neighbourhood (a sparsely reconstructed dark band). The two groups above
+    the layer are stacked, not side by side, so nothing is peeled: one object (without the rule:
+    base + body + top, three objects)."""
+    rng = np.random.default_rng(0)
+    model, owner = build([
+        ground(rng),
+        disc(rng, (0.0, 0.0, 0.08), 0.3, (0.2, 0.2, 0.2)),
+        blob(rng, (0.0, 0.0, 0.2), 0.1, (0.9, 0.8, 0.1), n=300),
+        blob(rng, (0.0, 0.0, 0.435), 0.06, (0.9, 0.8, 0.1), n=120),
+    ])  # fmt: skip
+    means, opac, maxs = _arrays(model)
+    c = cluster_gaussians(means, opac, maxs, scene_frame(cameras(), means, opac), ClusterConfig())
+    assert c.count == 1 and c.support == []
+    assert (c.labels[owner > 0] == 1).all()
 
 
 def test_per_view_ids_differ_between_views_yet_match_the_objects():

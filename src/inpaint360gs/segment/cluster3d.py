@@ -8,8 +8,10 @@ Steps, every length a fraction of the orbit radius R (:class:`.frame.SceneFrame`
    ``min_cluster_frac`` of the seeds are kept.
 2. **support peeling**: a cluster whose densest thin height layer (a plate, a tray, a board) is big,
    stands out of the cluster's height histogram, lies low in the cluster and carries at least two
-   separate groups above it becomes one support object plus one object per group; otherwise it
-   stays whole (a cone keeps its base).
+   separate groups side by side above it becomes one support object plus one object per group;
+   otherwise it stays whole (a cone keeps its base). Groups stacked over each other (a group whose
+   horizontal centre lies inside a larger group's footprint seen from above) are one object whose
+   middle was reconstructed sparsely — a cone's dark band — not two objects on a plate.
 3. **growing**: less opaque or lower Gaussians near the axis join the cluster of their nearest labelled
    Gaussian when it is close.
 
@@ -113,7 +115,32 @@ def density_scale(seeds: np.ndarray, cfg: ClusterConfig, R: float) -> float:
     return max(1.0, cfg.density_eps * float(np.median(d[:, -1])) / (cfg.eps * R))
 
 
-def _peel(x: np.ndarray, h: np.ndarray, cfg: ClusterConfig, R: float) -> list[np.ndarray] | None:
+def _merge_stacked(groups: list[np.ndarray], x: np.ndarray, up: np.ndarray) -> list[np.ndarray]:
+    """Merge each group (index arrays into ``x``, largest first) into the first larger group whose
+    footprint seen from above (the convex hull of its centres projected on the plane) holds the
+    group's horizontal centre."""
+    from scipy.spatial import Delaunay, QhullError
+
+    a = np.cross(up, [1.0, 0.0, 0.0] if abs(up[0]) < 0.9 else [0.0, 1.0, 0.0])
+    a /= np.linalg.norm(a)
+    flat = np.stack([x @ a, x @ np.cross(up, a)], axis=1)  # plane coordinates
+    kept: list[np.ndarray] = []
+    hulls: list[Delaunay | None] = []
+    for g in sorted(groups, key=lambda g: -len(g)):
+        centre = flat[g].mean(axis=0)
+        host = next((i for i, t in enumerate(hulls) if t is not None and t.find_simplex(centre) >= 0), None)
+        if host is not None:
+            kept[host] = np.concatenate([kept[host], g])
+            continue
+        kept.append(g)
+        try:
+            hulls.append(Delaunay(flat[g]))
+        except QhullError:  # degenerate footprint (collinear centres): holds nothing
+            hulls.append(None)
+    return kept
+
+
+def _peel(x: np.ndarray, h: np.ndarray, up: np.ndarray, cfg: ClusterConfig, R: float) -> list[np.ndarray] | None:
     """Split one cluster (centres ``x``, heights ``h``) into [support, object, object, ...] index
     arrays, or None to keep it whole (see the module docstring)."""
     n = len(h)
@@ -134,6 +161,8 @@ def _peel(x: np.ndarray, h: np.ndarray, cfg: ClusterConfig, R: float) -> list[np
     lab = _dbscan(x[above], cfg.upper_eps * R, cfg.min_samples)
     groups = [above[lab == j] for j in range(lab.max() + 1)] if len(lab) else []
     groups = [g for g in groups if len(g) >= cfg.upper_min_frac * n]
+    if len(groups) >= 2:
+        groups = _merge_stacked(groups, x, up)
     if len(groups) < 2:
         return None
     layer = np.flatnonzero(h <= top)
@@ -158,7 +187,7 @@ def cluster_gaussians(means: np.ndarray, opacities: np.ndarray, max_scales: np.n
     clusters = sorted((c for c in clusters if len(c) > cfg.min_cluster_frac * len(seeds)), key=lambda c: -len(c))
     next_id = 1
     for c in clusters:
-        parts = _peel(means[c], h[c], cfg, R)
+        parts = _peel(means[c], h[c], frame.up, cfg, R)
         if parts is None:
             labels[c] = next_id
             next_id += 1
