@@ -181,3 +181,23 @@ def test_cli_train_and_render(tiny_scene, tmp_path, monkeypatch, capsys):
     png = cv2.imread(str(r / "depth" / "test_000.png"), cv2.IMREAD_UNCHANGED)
     assert png.dtype == np.uint16 and np.allclose(png / info["depth_png_scale"]["test_000.png"], d, atol=1e-3)
     assert main(["train", str(tmp_path / "missing"), str(tmp_path / "o2"), "--no-progress"]) == 2
+
+
+@pytest.mark.parametrize("value, raises", [(float("nan"), True), (float("inf"), True), (-float("inf"), True), (3.0e38, False)])
+def test_finite_check_of_the_loop(value, raises):
+    """The per-step check reads the parameters' sum first: a NaN or inf anywhere is caught and
+    counted; finite values whose sum overflows (2 x 3e38 in float32) are not an error."""
+    from types import SimpleNamespace
+
+    from inpaint360gs.gs.loop import OptimizationLoop
+
+    p = torch.zeros(1000, 3)
+    p[10, 1] = value
+    p[20, 2] = value if not raises else 0.0
+    loop = SimpleNamespace(params={"means": p, "frozen": torch.full((2,), float("nan"))}, schedules={"means": 1e-3})
+    if raises:
+        with pytest.raises(TrainingDivergedError, match="step 7: parameter 'means' has 1 non-finite"):
+            OptimizationLoop._check_finite(loop, 7)
+    else:
+        assert not torch.isfinite(p.sum())
+        OptimizationLoop._check_finite(loop, 7)  # finite values, overflowing sum: no error; unscheduled tensors are not read
