@@ -145,7 +145,63 @@ def test_database_is_compared_through_what_the_view_can_label():
     cams = [cam] * len(segs)
     out, sizes = _kom(segs, cams, means, AssociationConfig(compare="visible").resolved())
     assert len(sizes) == 1 and sizes[0] == 400 and all(set(np.unique(o)) == {0, 1} for o in out)
+    out, sizes = _kom(segs, cams, means, AssociationConfig(compare="all", part_share=0.0, merge_share=0.0).resolved())
+    assert len(sizes) == 5  # the literal reading (and Alg. 1 alone): every band a new object
     out, sizes = _kom(segs, cams, means, AssociationConfig(compare="all").resolved())
-    assert len(sizes) == 5  # the literal reading: every band a new object
+    assert len(sizes) == 1  # the literal reading with the part rule: each band lies inside the object's set
     with pytest.raises(InputError, match="comparison"):
         AssociationConfig(compare="nearest").resolved()
+
+
+def _flat_scene(cols: tuple[int, int] = (10, 30)):
+    """One Gaussian per pixel of rows/cols 10..29 at z ~ 1 and a wall behind at z = 3, seen by a
+    40 x 40 camera; returns (camera, means)."""
+    from inpaint360gs.core.camera import Camera
+
+    cam = Camera(R=torch.eye(3, dtype=torch.float64), t=torch.zeros(3, dtype=torch.float64), fx=50.0, fy=50.0, cx=0.0, cy=0.0, width=40, height=40)
+    ys, xs = np.mgrid[10:30, cols[0] : cols[1]].reshape(2, -1) + 0.5
+    z = 1.0 + 0.001 * np.random.default_rng(0).random(ys.size)
+    near = np.stack([xs / cam.fx * z, ys / cam.fy * z, z], axis=1)
+    far = np.stack([xs / cam.fx * 3.0, ys / cam.fy * 3.0, np.full(ys.size, 3.0)], axis=1)
+    return cam, np.concatenate([near, far])
+
+
+def test_a_small_split_part_joins_its_object():
+    """The object seen whole (400 Gaussians), then split by the segmenter into 360 + 40 pixels: the
+    small part's GS-IoU is 40 / 400 = 0.1 < sigma, so Alg. 1 alone founds a second object for it;
+    all of its Gaussians lie in the object's set, so the part rule gives it the object's id."""
+    from inpaint360gs.segment.associate import _kom
+
+    cam, means = _flat_scene()
+    whole = np.zeros((40, 40), np.uint16)
+    whole[10:30, 10:30] = 4
+    split = np.zeros((40, 40), np.uint16)
+    split[10:28, 10:30] = 1
+    split[28:30, 10:30] = 2
+    out, sizes = _kom([whole, split], [cam, cam], means, AssociationConfig().resolved())
+    assert len(sizes) == 1 and (out[1][10:30, 10:30] == 1).all()
+    out, sizes = _kom([whole, split], [cam, cam], means, AssociationConfig(part_share=0.0).resolved())
+    assert len(sizes) == 2 and (out[1][28:30, 10:30] == 2).all()
+
+
+def test_a_merged_segment_is_divided_between_the_objects():
+    """Two objects side by side (columns 10-19 and 20-29), seen apart, then merged into one segment:
+    its pixels go to the two ids by the Gaussians behind them and neither set takes the other's
+    Gaussians. Without the rule the whole segment takes one id and that object's set swallows the
+    other (the next view, apart again, then gives both objects that id)."""
+    from inpaint360gs.segment.associate import _kom
+
+    cam, means = _flat_scene()
+    apart = np.zeros((40, 40), np.uint16)
+    apart[10:30, 10:20] = 5
+    apart[10:30, 20:30] = 9
+    merged = np.zeros((40, 40), np.uint16)
+    merged[10:30, 10:30] = 2
+    segs, cams = [apart, merged, apart], [cam] * 3
+    out, sizes = _kom(segs, cams, means, AssociationConfig().resolved())
+    assert len(sizes) == 2 and list(sizes) == [200, 200]
+    for o in out:
+        assert (o[10:30, 10:20] == 1).all() and (o[10:30, 20:30] == 2).all()
+    out, sizes = _kom(segs, cams, means, AssociationConfig(merge_share=0.0).resolved())
+    assert (out[1][10:30, 10:30] == out[1][10, 10]).all()  # one id over both objects
+    assert sizes.max() == 400

@@ -23,6 +23,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--keep-near", type=fraction, default=None, help="keep this nearest fraction of each patch's near cluster (default: the variant's)")
     parser.add_argument("--compare", default=d.compare, choices=["visible", "all"],
                         help="visible: each database set through the Gaussians the current view labels (default); all: the whole set (Eq. 2 read literally; objects split once their set outgrows 1/sigma views' worth)")
+    parser.add_argument("--part-share", type=fraction, default=d.part_share,
+                        help=f"a segment below the GS-IoU threshold with at least this share of its Gaussians in one object's set is a part of it (default {d.part_share}; 0 = off, Alg. 1 alone)")
+    parser.add_argument("--merge-share", type=fraction, default=d.merge_share,
+                        help=f"a segment holding at least this share of each of two objects' sets is a merge and is divided between them (default {d.merge_share}; 0 = off)")
     parser.add_argument("--patch", type=positive_int, default=d.patch, help=f"patch size in pixels (default {d.patch})")
     parser.add_argument("--min-segment-pixels", type=nonneg_int, default=d.min_segment_pixels)
     parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor of the scene")
@@ -39,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = AssociationConfig(
         method=args.method, variant=args.variant, sigma=args.sigma, keep_near=args.keep_near,
         patch=args.patch, min_segment_pixels=args.min_segment_pixels, compare=args.compare,
+        part_share=args.part_share, merge_share=args.merge_share,
     ).resolved()  # fmt: skip
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     model = read_ply(args.model)

@@ -23,6 +23,18 @@ through the Gaussians they cover. For each view in capture order:
    "visible"``) each set is therefore compared through the Gaussians the current view labels (the
    near clusters of all its segments): the database as seen from this view. ``compare="all"`` is
    the literal reading.
+   **Parts and merges** (beyond Alg. 1; ``part_share=0, merge_share=0`` gives Alg. 1 alone). An
+   automatic segmenter also cuts objects in pieces and joins touching ones (the ``oracle``
+   segmenter's damage imitates both). A piece of a known object scores at most its size over the
+   object's, so below σ it founds a new id, which then competes with the object's own in later
+   views and takes it over (measured on ``fruits`` with damaged masks: the apple switches ids at
+   view 21 and keeps the new one). So a segment below σ whose Gaussians lie mostly (``part_share``
+   = 0.6) in one object's set takes that object's id. A segment covering two objects at once scores
+   about 0.5 with the larger and would pour the other's Gaussians into its set, after which both
+   objects match that set; so a segment holding at least ``merge_share`` = 0.5 of each of two or
+   more objects' sets (as seen from this view, each also ≥ 20% of the segment) is divided: each
+   Gaussian goes to the object whose set holds it, each pixel to the object of its nearest such
+   projected Gaussian, and nothing joins a set it does not already belong to.
 4. The view's associated mask is its segments relabelled with these ids; pixels outside any
    segment, and segments that cover no Gaussian or fewer than ``min_segment_pixels`` pixels, are
    background (0).
@@ -68,6 +80,9 @@ class AssociationConfig:
     # what a database set is compared through: "visible" = only its Gaussians this view can label (those
     # in the near cluster of any of its segments); "all" = the whole accumulated set (see the module docstring)
     compare: str = "visible"
+    # Beyond Alg. 1 (both 0 = the paper's rule alone; see the module docstring, "Parts and merges"):
+    part_share: float = 0.6  # an unmatched segment with at least this share of its Gaussians in one object's set is a part of it
+    merge_share: float = 0.5  # a segment holding at least this share of each of two or more objects' sets (as seen) is a merge: split between them
 
     def resolved(self) -> AssociationConfig:
         if self.method not in ("kom", "tracker"):
@@ -86,6 +101,8 @@ class AssociationConfig:
             raise InputError(f"GS-IoU threshold must lie in (0, 1), got {out.sigma}", "--sigma")
         if not 0 < out.keep_near <= 1:
             raise InputError(f"near fraction must lie in (0, 1], got {out.keep_near}", "--keep-near")
+        if not (0 <= out.part_share <= 1 and 0 <= out.merge_share <= 1):
+            raise InputError("part and merge shares must lie in [0, 1] (0 = off)", "--part-share/--merge-share")
         if out.patch < 1:
             raise InputError(f"patch size must be >= 1, got {out.patch}", "--patch")
         return out
@@ -193,17 +210,37 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
             labelable = np.unique(idx[near])
             pos = np.full(n, -1, dtype=np.int64)
             pos[labelable] = np.arange(labelable.size)
+        pieces = {}  # merged segments: segment id -> (pixel labels of its members, their projections)
         for s in ids:
-            members = np.unique(idx[near & (labels == s)])
+            in_s = near & (labels == s)
+            members = np.unique(idx[in_s])
             if members.size == 0:
                 continue  # the segment covers no Gaussian: background
             if len(db):
                 if cfg.compare == "visible":
-                    seen = db[:, labelable]
-                    score = gs_iou(seen, seen.sum(axis=1), pos[members], cfg.variant)
+                    seen, cols = db[:, labelable], pos[members]
                 else:
-                    score = gs_iou(db, db_sizes, members, cfg.variant)
+                    seen, cols = db, members
+                sizes = seen.sum(axis=1).astype(np.float64)
+                inter = seen[:, cols].sum(axis=1).astype(np.float64)
+                if cfg.merge_share > 0:
+                    both = np.flatnonzero((inter >= cfg.merge_share * np.maximum(sizes, 1)) & (inter >= 0.2 * members.size))
+                    if both.size >= 2:  # two known objects in one segment: divide it, keep the database clean
+                        owner = _merge_owner(seen[both][:, cols], inter[both])
+                        for k, j in enumerate(both):
+                            db[j, members[owner == k]] = True
+                            db_sizes[j] = db[j].sum()
+                        g_owner = np.full(n, -1, dtype=np.int64)
+                        g_owner[members] = np.where(owner >= 0, both[np.maximum(owner, 0)] + 1, -1)
+                        pieces[s] = (g_owner[idx[in_s]], u[in_s], v[in_s])
+                        continue
+                score = gs_iou(seen, sizes, cols, cfg.variant) if cfg.compare == "visible" else gs_iou(db, db_sizes, members, cfg.variant)
                 j = int(np.argmax(score))
+                if score[j] <= cfg.sigma and cfg.part_share > 0:  # a part of a known object (a split): mostly inside its set
+                    share = inter / members.size
+                    if share.max() >= cfg.part_share:
+                        j = int(np.argmax(share))
+                        score[j] = np.inf
                 if score[j] > cfg.sigma:
                     db[j, members] = True
                     db_sizes[j] = db[j].sum()
@@ -216,8 +253,35 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
             db = np.vstack([db, row])
             db_sizes = np.r_[db_sizes, members.size]
             lut[s] = len(db)
-        out.append(lut[seg])
+        mask = lut[seg]
+        for s, (g_lab, gu, gv) in pieces.items():
+            mask = _split_pixels(mask, seg == s, g_lab, gu, gv)
+        out.append(mask)
     return out, db_sizes
+
+
+def _merge_owner(sets: np.ndarray, inter: np.ndarray) -> np.ndarray:
+    """For a merged segment: the candidate (row of ``sets``, (K, M) membership of its M Gaussians)
+    each Gaussian belongs to; in several sets the one sharing most with the segment; in none -1."""
+    owner = np.full(sets.shape[1], -1, dtype=np.int64)
+    for k in np.argsort(inter, kind="stable"):  # larger overlaps written last: they win ties
+        owner[sets[k]] = k
+    return owner
+
+
+def _split_pixels(mask: np.ndarray, region: np.ndarray, g_lab: np.ndarray, gu: np.ndarray, gv: np.ndarray) -> np.ndarray:
+    """Label the pixels of ``region`` with the id of the nearest projected Gaussian that has one."""
+    from scipy.spatial import cKDTree
+
+    ok = g_lab > 0
+    out = mask.copy()
+    ry, rx = np.nonzero(region)
+    if not ok.any():
+        out[ry, rx] = 0
+        return out
+    _, j = cKDTree(np.stack([gu[ok], gv[ok]], axis=1)).query(np.stack([rx, ry], axis=1))
+    out[ry, rx] = g_lab[ok][j].astype(out.dtype)
+    return out
 
 
 def _tracker(segs: Sequence[np.ndarray], cfg: AssociationConfig) -> list[np.ndarray]:
