@@ -119,6 +119,28 @@ def test_a_single_object_on_a_layer_is_kept_whole():
     assert c.count == 1 and c.support == []
 
 
+def test_sparse_gaussians_above_a_plate_go_to_the_object_not_the_plate():
+    """Three faint-density Gaussians beside the bottom of a blob on a plate, 4 cm above it: too
+    sparse for the groups above the layer (DBSCAN noise there), nearer to the plate below than to
+    the blob. They stand above the layer, so they belong to the nearest group (the blob), not to
+    the support (growing alone would give them to the plate)."""
+    rng = np.random.default_rng(0)
+    extra = np.array([[0.41, -0.05, 0.12], [0.41, 0.0, 0.12], [0.41, 0.05, 0.12]])
+    parts = [
+        ground(rng),
+        disc(rng, (0.0, 0.0, 0.08), 0.5, (0.9, 0.9, 0.85)),
+        blob(rng, (0.25, 0.0, 0.2), 0.12, (0.9, 0.2, 0.1), n=300),
+        blob(rng, (-0.22, 0.1, 0.2), 0.12, (0.1, 0.7, 0.2), n=300),
+        (extra, np.tile([0.9, 0.2, 0.1], (3, 1)), np.full((3, 3), 0.02)),
+    ]
+    model, owner = build(parts)
+    means, opac, maxs = _arrays(model)
+    c = cluster_gaussians(means, opac, maxs, scene_frame(cameras(), means, opac), ClusterConfig())
+    assert c.count == 3 and len(c.support) == 1
+    blob_label, _ = _purity(c.labels, owner, 2)
+    assert (c.labels[owner == 4] == blob_label).all() and blob_label != c.support[0]
+
+
 def test_parts_stacked_over_each_other_on_a_layer_stay_one_object():
     """A cone-like object: a base plate, a body on it, and a top separated from the body by a gap
     wider than the peeling neighbourhood (a sparsely reconstructed dark band). The two groups above

@@ -11,7 +11,9 @@ Steps, every length a fraction of the orbit radius R (:class:`.frame.SceneFrame`
    separate groups side by side above it becomes one support object plus one object per group;
    otherwise it stays whole (a cone keeps its base). Groups stacked over each other (a group whose
    horizontal centre lies inside a larger group's footprint seen from above) are one object whose
-   middle was reconstructed sparsely — a cone's dark band — not two objects on a plate.
+   middle was reconstructed sparsely — a cone's dark band — not two objects on a plate. What stands
+   above the layer but is too sparse for any group (a fruit's underside next to the plate) joins
+   the nearest group, not the support.
 3. **growing**: less opaque or lower Gaussians near the axis join the cluster of their nearest labelled
    Gaussian when it is close.
 
@@ -166,7 +168,20 @@ def _peel(x: np.ndarray, h: np.ndarray, up: np.ndarray, cfg: ClusterConfig, R: f
     if len(groups) < 2:
         return None
     layer = np.flatnonzero(h <= top)
-    return [layer] + sorted(groups, key=lambda g: -len(g))
+    groups = sorted(groups, key=lambda g: -len(g))
+    # what stands above the layer but fell out of the groups (DBSCAN noise: the sparse underside of
+    # a fruit next to the plate) belongs to the nearest group, not to the support below it
+    grouped = np.zeros(n, bool)
+    for g in groups:
+        grouped[g] = True
+    rest = above[~grouped[above]]
+    if len(rest):
+        member = np.concatenate(groups)
+        owner = np.concatenate([np.full(len(g), k) for k, g in enumerate(groups)])
+        d, j = cKDTree(x[member]).query(x[rest], distance_upper_bound=cfg.eps * R)
+        ok = np.isfinite(d)
+        groups = [np.concatenate([g, rest[ok & (owner[np.minimum(j, len(owner) - 1)] == k)]]) for k, g in enumerate(groups)]
+    return [layer] + groups
 
 
 def cluster_gaussians(means: np.ndarray, opacities: np.ndarray, max_scales: np.ndarray, frame: SceneFrame, cfg: ClusterConfig) -> Clusters:
