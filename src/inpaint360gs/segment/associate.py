@@ -226,15 +226,12 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
                 if cfg.merge_share > 0:
                     both = np.flatnonzero((inter >= cfg.merge_share * np.maximum(sizes, 1)) & (inter >= 0.2 * members.size))
                     if both.size >= 2:  # two known objects in one segment: divide it, keep the database clean
-                        owner = _merge_owner(seen[both][:, cols], inter[both])
-                        for k, j in enumerate(both):
-                            db[j, members[owner == k]] = True
-                            db_sizes[j] = db[j].sum()
+                        owner = _merge_owner(seen[both][:, cols], inter[both])  # each Gaussian stays in a set it is in: no update
                         g_owner = np.full(n, -1, dtype=np.int64)
                         g_owner[members] = np.where(owner >= 0, both[np.maximum(owner, 0)] + 1, -1)
                         pieces[s] = (g_owner[idx[in_s]], u[in_s], v[in_s])
                         continue
-                score = gs_iou(seen, sizes, cols, cfg.variant) if cfg.compare == "visible" else gs_iou(db, db_sizes, members, cfg.variant)
+                score = gs_iou(seen, sizes, cols, cfg.variant)
                 j = int(np.argmax(score))
                 if score[j] <= cfg.sigma and cfg.part_share > 0:  # a part of a known object (a split): mostly inside its set
                     share = inter / members.size
