@@ -8,9 +8,14 @@ colour in the original model) and the surface the removal reveals there was neve
 
 * nothing is revealed (the edited scene renders alpha < 0.5 there: a hole), or
 * the revealed point (back-projected with the edited scene's depth, Eq. 5 normalised by alpha)
-  is seen by no training view: in every training view it is off-image, behind the camera, or
+  is seen by no training view: in every training view it is off-image, behind the camera,
   hidden — the original scene's depth there (the object present) is nearer by more than
-  ``depth_tol`` of the distance.
+  ``depth_tol`` of the distance — or shown by the removed objects themselves (their Gaussians give
+  that training pixel at least ``seen_object_share`` of its colour). The last case is where an object
+  meets its support: at the contact the object's base lies within ``depth_tol`` of the floor point
+  behind it, so the depth test alone counts the floor under the base as observed, although what
+  the training views recorded there is the object's base (its colour stays in the Gaussians the
+  removal reveals: a dark print of the base that the inpainting must replace).
 
 The mask is then cleaned of specks (components smaller than ``min_component`` pixels) and dilated by
 ``dilate`` pixels (the authors dilate their inpainting masks before LaMa too).
@@ -40,6 +45,7 @@ class UnseenConfig:
     depth_tol: float = 0.01  # a training view sees a point when nothing there is nearer by more than this share of the distance
     min_alpha: float = 0.5  # below this the edited scene shows a hole
     footprint_share: float = 0.5  # footprint: the removed Gaussians gave at least this share of the colour
+    seen_object_share: float = 0.1  # a training pixel to which the removed Gaussians gave at least this share recorded them, not what lies behind or under them
     min_component: int = 8  # specks smaller than this many pixels are dropped
     dilate: int = 3  # final dilation, pixels
 
@@ -73,30 +79,47 @@ def project(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray,
 
 
 class TrainingVisibility:
-    """The training views' depth with the objects present, for "was this point ever seen?" tests."""
+    """The training views' depth with the objects present, for "was this point ever seen?" tests.
 
-    def __init__(self, model: Gaussians, cameras: Sequence[Camera], backend: str = "auto", min_alpha: float = 0.5):
+    With ``removed`` (N,) flags of ``model``'s removed Gaussians, a training pixel that the removed
+    objects colour (share ``footprint_share`` or more) observes no point behind or under them, even
+    when the depths agree within the tolerance (see the module docstring)."""
+
+    def __init__(
+        self,
+        model: Gaussians,
+        cameras: Sequence[Camera],
+        backend: str = "auto",
+        min_alpha: float = 0.5,
+        removed: torch.Tensor | None = None,
+        footprint_share: float = 0.5,
+    ):
         self.cameras = list(cameras)
         self.depths = []
+        self.object_pixels: list[np.ndarray | None] = []
         with torch.no_grad():
             for c in self.cameras:
                 o = render(model, c, backend=backend)
                 d = normalised_depth(o).numpy()
                 d[o.alpha.numpy() < min_alpha] = 0.0  # no surface: nothing occludes there
                 self.depths.append(d)
+                self.object_pixels.append(None if removed is None else footprint(model, removed, c, footprint_share, backend))
 
     def seen(self, points: np.ndarray, depth_tol: float) -> np.ndarray:
         """Which world points some training view observed (in its image, in front, not occluded)."""
         seen = np.zeros(len(points), dtype=bool)
-        for cam, d in zip(self.cameras, self.depths):
+        for cam, d, obj in zip(self.cameras, self.depths, self.object_pixels):
             todo = ~seen
             if not todo.any():
                 break
             u, v, z = project(cam, points[todo])
             ok = (z > 1e-6) & (u >= 0) & (u < cam.width) & (v >= 0) & (v < cam.height)
             idx = np.flatnonzero(todo)[ok]
-            surf = d[v[ok].astype(np.int64), u[ok].astype(np.int64)]
+            vi, ui = v[ok].astype(np.int64), u[ok].astype(np.int64)
+            surf = d[vi, ui]
             visible = (surf <= 0) | (surf >= z[ok] * (1.0 - depth_tol))  # nothing nearer in front of it
+            if obj is not None:
+                visible &= ~obj[vi, ui]  # the pixel recorded the removed objects, not this point
             seen[idx[visible]] = True
         return seen
 
