@@ -99,7 +99,7 @@ def test_floor_under_an_object_lying_on_it_is_unseen():
     train = orbit_cameras(24, radius=3.0, height=2.0, width=96, h=72, f=80.0)
     cfg = UnseenConfig(min_component=1, dilate=0)
     edited = model.subset(~flags)
-    with_rule = TrainingVisibility(model, train, removed=flags, footprint_share=cfg.seen_object_share)
+    with_rule = TrainingVisibility(model, train, removed=flags, object_share=cfg.seen_object_share)
     depth_only = TrainingVisibility(model, train)
     for cam in orbit_cameras(4, radius=2.6, height=1.6, width=128, h=96, f=110.0, phase=0.2):
         exact = exact_unseen(cam)  # rays meeting the floor inside the mat's square

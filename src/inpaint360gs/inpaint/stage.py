@@ -105,7 +105,7 @@ def inpaint_scene(
     opts = {"seed": cfg.refine.seed, **({"lama_onnx": cfg.lama_onnx} if cfg.lama_onnx else {})}
     rgb, dep = make_inpainter(cfg.rgb_inpainter, **opts), make_inpainter(cfg.depth_inpainter, **opts)
     train_cams = [v.camera for v in scene.train_views]
-    visibility = TrainingVisibility(original, train_cams, backend=cfg.backend, removed=removed_mask, footprint_share=cfg.unseen.seen_object_share)
+    visibility = TrainingVisibility(original, train_cams, backend=cfg.backend, removed=removed_mask, object_share=cfg.unseen.seen_object_share)
     edited = original.subset(~removed_mask)
     t["visibility_s"] = time.perf_counter() - t0
 

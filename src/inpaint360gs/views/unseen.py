@@ -82,7 +82,7 @@ class TrainingVisibility:
     """The training views' depth with the objects present, for "was this point ever seen?" tests.
 
     With ``removed`` (N,) flags of ``model``'s removed Gaussians, a training pixel that the removed
-    objects colour (share ``footprint_share`` or more) observes no point behind or under them, even
+    objects colour (share ``object_share`` or more) observes no point behind or under them, even
     when the depths agree within the tolerance (see the module docstring)."""
 
     def __init__(
@@ -92,18 +92,21 @@ class TrainingVisibility:
         backend: str = "auto",
         min_alpha: float = 0.5,
         removed: torch.Tensor | None = None,
-        footprint_share: float = 0.5,
+        object_share: float = 0.1,
     ):
         self.cameras = list(cameras)
         self.depths = []
         self.object_pixels: list[np.ndarray | None] = []
+        if removed is not None:  # one render per view gives the depth and the removed objects' colour share
+            model = model.map(lambda t: t)
+            model.features = removed.to(model.means.dtype)[:, None]
         with torch.no_grad():
             for c in self.cameras:
-                o = render(model, c, backend=backend)
+                o = render(model, c, with_features=removed is not None, backend=backend)
                 d = normalised_depth(o).numpy()
                 d[o.alpha.numpy() < min_alpha] = 0.0  # no surface: nothing occludes there
                 self.depths.append(d)
-                self.object_pixels.append(None if removed is None else footprint(model, removed, c, footprint_share, backend))
+                self.object_pixels.append(None if removed is None else (o.features[..., 0] >= object_share).numpy())
 
     def seen(self, points: np.ndarray, depth_tol: float) -> np.ndarray:
         """Which world points some training view observed (in its image, in front, not occluded)."""
