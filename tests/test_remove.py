@@ -460,3 +460,48 @@ def test_object_body_keeps_sparse_parts_inside_the_body_and_drops_far_strays():
     assert body[: n + 3].all() and not body[n + 3 :].any()
     # without the margin the cap goes with the strays (its pieces are far smaller than the body)
     assert not object_body(pts, link=4.0, min_part=0.1, near=0.0)[n : n + 3].any()
+
+
+def test_leg_ends_hanging_below_the_object_go_with_it():
+    """A leg: removed Gaussians from z = 0.3 up, background-labelled ones below it down to the floor
+    (what the 2D masks lose near the floor). The steps down take the leg's end above the support
+    guard band, not the floor, not a flat sheet beside the leg at the leg's own height, and nothing
+    under a leg that ends high above the floor with a gap."""
+    from inpaint360gs.remove.removal import hanging_below
+
+    up = np.array([0.0, 0.0, 1.0])
+    leg = np.stack([np.zeros(40), np.zeros(40), np.linspace(0.02, 0.6, 40)], 1)  # spacing ~0.015
+    sheet = np.stack([np.linspace(0.05, 0.5, 10), np.zeros(10), np.full(10, 0.3)], 1)  # beside the leg, level
+    floor = np.stack([np.linspace(-0.5, 0.5, 20), np.full(20, 0.01), np.zeros(20)], 1)
+    far = np.array([[2.0, 0.0, 0.5], [2.0, 0.0, 0.1]])  # a high removed point, and one far below it
+    means = np.concatenate([leg, sheet, floor, far])
+    heights = means[:, 2]
+    removed = np.zeros(len(means), bool)
+    removed[: 40][leg[:, 2] >= 0.3] = True
+    removed[len(means) - 2] = True
+    band = 0.016
+    candidates = ~removed & (heights > band)
+    out = hanging_below(means, heights, up, removed, candidates, r=0.02)
+    leg_end = np.flatnonzero((np.arange(len(means)) < 40) & ~removed & (heights > band))
+    assert out[leg_end].all() and len(leg_end) > 10
+    assert not out[40:].any()  # sheet, floor, the point 0.4 below the high one
+    assert not hanging_below(means, heights, up, removed, candidates, r=0.0).any()
+
+
+def test_support_column_is_off_by_default_and_turned_on_by_the_cli(tmp_path):
+    """The third removal step is opt-in: off in RemovalConfig and in `inpaint360gs remove`;
+    `--support-column` alone gives 0.01, a value outside (0, 1] is refused."""
+    import argparse
+
+    from inpaint360gs.cli.remove import add_arguments
+    from inpaint360gs.remove.removal import RemovalConfig
+
+    assert RemovalConfig().support_column is None
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    base = [str(tmp_path), str(tmp_path), str(tmp_path / "out")]
+    assert parser.parse_args(base).support_column is None
+    assert parser.parse_args(base + ["--support-column"]).support_column == 0.01
+    assert parser.parse_args(base + ["--support-column", "0.02"]).support_column == 0.02
+    with pytest.raises(SystemExit):
+        parser.parse_args(base + ["--support-column", "1.5"])

@@ -26,6 +26,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-hull", action="store_true", help="do not also remove what lies inside the convex hull of the selected Gaussians")
     parser.add_argument("--no-protect-support", action="store_true",
                         help="let the hull step take background Gaussians on the support plane too (the authors' code; default: kept)")
+    parser.add_argument("--support-column", type=fraction, nargs="?", const=0.01, default=None, metavar="R",
+                        help="also take background Gaussians hanging below the removed ones, in steps of at most R x the orbit radius "
+                             "(thin parts near the floor, e.g. a stool's leg ends; R = 0.01 when given without a value; default: off)")
     parser.add_argument("--protect-background", type=fraction, default=None, metavar="P", help="the hull step keeps Gaussians whose background probability exceeds P (default: off, as the authors' code)")
     parser.add_argument("--resize", type=positive_int, default=1)
     parser.add_argument("--llffhold", type=nonneg_int, default=8)
@@ -44,7 +47,8 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(args.out, args.overwrite)
     clicks = [Click.parse(c) for c in args.click]
     cfg = RemovalConfig(threshold=args.threshold, hull=not args.no_hull, protect_background=args.protect_background,
-                        protect_support=None if args.no_protect_support else RemovalConfig.protect_support)
+                        protect_support=None if args.no_protect_support else RemovalConfig.protect_support,
+                        support_column=args.support_column)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     where = "--click"
     if not clicks and not args.id:  # as `inpaint360gs run`: the clicks scene.json names
