@@ -6,6 +6,8 @@ import os
 # instead of spinning, or they steal the 2 CPU cores from each other. A test module that imports
 # torch before the package would otherwise come too late.
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# and MKL's Conditional Numerical Reproducibility, so that seeded runs repeat bit for bit (see there)
+os.environ.setdefault("MKL_CBWR", "AUTO")
 
 
 def pytest_collection_modifyitems(config, items):

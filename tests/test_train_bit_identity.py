@@ -1,15 +1,23 @@
-"""3DGS through the shared optimisation loop is bit-identical to the trainer it replaced.
+"""3DGS through the shared optimisation loop: deterministic, and where the trainer it replaced was.
 
-The reference hash was produced by the 3DGS trainer as it was before training moved onto
-:class:`inpaint360gs.gs.loop.OptimizationLoop`, with the same rasterizer kernels, scene builder,
-config and seed. Any change in the order of random draws, floating-point operations or
-densification edits changes it (so does a change of the kernels' rounding: then the reference must
-be remade with the old trainer and the new kernels).
+When training moved onto :class:`inpaint360gs.gs.loop.OptimizationLoop`, its PLY was checked bit for
+bit against the trainer it replaced (same rasterizer kernels, scene builder, config and seed). Those
+bits are not portable: torch's CPU BLAS (MKL) takes a code path per CPU, and the 200 steps below
+end in different bytes on an AVX2 path and an AVX-512 one (measured: the same 1418 Gaussians, mean
+PSNR over the 14 views 22.1955 vs 22.1988 dB). So the test asserts what holds on any machine:
+
+- two runs in one process write the same bytes (seeded training repeats exactly; this caught MKL
+  splitting products differently from call to call, see ``MKL_CBWR`` in ``inpaint360gs/__init__``);
+- the Gaussian count the densification reaches, exactly, and the mean PSNR of the trained model
+  over the scene's views within 0.02 dB of the reference (22.196 dB: the loop trainer, measured on
+  an AVX-512 machine when the byte check was retired; the loop had been byte-identical to the
+  replaced trainer before); a change of schedule, loss or densification moves one of them.
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
 
 import numpy as np
 import pytest
@@ -24,9 +32,10 @@ from inpaint360gs.io.scene import load_scene
 from inpaint360gs.render.api import render
 
 REFERENCE = {
-    # backend: (Gaussians after 200 steps, sha256 of point_cloud.ply)
-    "numba": (1418, "3047edf857816899cc8baef795acdee6720eb2c36850cdfc1fba69476798929f"),
+    # backend: (Gaussians after 200 steps, mean PSNR in dB of the trained model over the 14 views)
+    "numba": (1418, 22.196),
 }
+PSNR_TOL = 0.02  # dB; the spread between MKL code paths is 0.004 dB (module docstring)
 
 
 def _sphere_scene(root):
@@ -47,13 +56,28 @@ def _sphere_scene(root):
     return root
 
 
+def _mean_psnr(scene, model) -> float:
+    psnr = []
+    for v in scene.views:
+        with torch.no_grad():
+            pred = render(model, v.camera, backend="numba").color.clamp(0, 1)
+        ref = torch.from_numpy(np.asarray(scene.load_image(v, allow_test=True))).float()
+        psnr.append(-10.0 * math.log10(float(((pred - ref[..., :3]) ** 2).mean())))
+    return float(np.mean(psnr))
+
+
 @pytest.mark.parametrize("backend", sorted(REFERENCE))
-def test_3dgs_ply_bytes_match_the_reference(tmp_path, backend):
+def test_3dgs_repeats_bit_for_bit_and_matches_the_reference(tmp_path, backend):
     torch.set_num_threads(2)
     scene = load_scene(_sphere_scene(tmp_path / "sphere"))
     n = 200
     dens = DensifyConfig(densify_from=20, densify_until=n - 20, densify_every=40, opacity_reset_every=100)
     cfg = TrainConfig(iterations=n, sh_degree_interval=40, means_lr_max_steps=n, densify=dens, log_every=10, checkpoint_every=0, backend=backend)
-    res = train(scene, cfg, tmp_path / "run")
-    digest = hashlib.sha256((tmp_path / "run" / "point_cloud.ply").read_bytes()).hexdigest()
-    assert (len(res.gaussians), digest) == REFERENCE[backend]
+    digests = []
+    for run in ("run1", "run2"):
+        res = train(scene, cfg, tmp_path / run)
+        digests.append(hashlib.sha256((tmp_path / run / "point_cloud.ply").read_bytes()).hexdigest())
+    assert digests[0] == digests[1]
+    count, psnr = REFERENCE[backend]
+    assert len(res.gaussians) == count
+    assert abs(_mean_psnr(scene, res.gaussians) - psnr) < PSNR_TOL

@@ -7,5 +7,12 @@ import os as _os
 # a numba kernel). Threads that sleep when idle avoid it. Effective when this package is imported
 # before torch (the CLI does); an explicit user setting wins.
 _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+# MKL (torch's CPU BLAS) picks its code path and splits work between threads at run time; on CPUs
+# with AVX-512 that made two identical backward passes of the LPIPS term of the inpainting loss
+# (Eq. 6; a 1x1 feature map's convolution goes through MKL) differ in the last bits, so a seeded
+# run did not repeat. Conditional Numerical Reproducibility ("AUTO": the best path for this CPU,
+# chosen once) makes them repeat bit for bit, at no measured cost. MKL reads the variable at its
+# first call: effective when this package is imported before torch computes anything.
+_os.environ.setdefault("MKL_CBWR", "AUTO")
 
 __version__ = "0.1.0"
