@@ -12,6 +12,7 @@ umask asks for (``tempfile`` creates them private, 0600 / 0700).
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import re
 import shutil
@@ -63,6 +64,15 @@ def remove_stale_temporaries(target: str | Path) -> list[Path]:
     return removed
 
 
+def _remove_own_temporaries(folder: Path, prefix: str, suffix: str) -> None:
+    """Remove this process's temporaries ``<prefix><random><suffix>`` in ``folder``. By name rather
+    than by the path ``tempfile`` returned: an interruption (SIGINT, the CLI's SIGTERM exception)
+    can land after the temporary was created and before its path was known."""
+    for p in folder.glob(glob.escape(prefix) + "*" + glob.escape(suffix)):
+        if p.name[len(prefix):-len(suffix)].count(".") == 0:  # the random part only: not another target's
+            shutil.rmtree(p, ignore_errors=True) if p.is_dir() and not p.is_symlink() else p.unlink(missing_ok=True)
+
+
 @contextlib.contextmanager
 def atomic_path(target: str | Path) -> Iterator[Path]:
     """Yield a temporary file path in the target's folder; rename it onto ``target`` on success.
@@ -73,16 +83,16 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
     target = Path(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(target)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=f".tmp{target.suffix}", dir=target.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
+    prefix, suffix = f".{target.name}.{os.getpid()}.", f".tmp{target.suffix}"
     try:
+        fd, tmp = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
+        os.close(fd)
+        tmp_path = Path(tmp)
         yield tmp_path
         _publish_mode(tmp_path, folder=False)
         os.replace(tmp_path, target)
     finally:
-        if tmp_path.exists():
-            tmp_path.unlink()
+        _remove_own_temporaries(target.parent, prefix, suffix)
 
 
 def check_output_dir(target: str | Path, overwrite: bool = False) -> Path:
@@ -107,8 +117,9 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     target = check_output_dir(target, overwrite)
     target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(target)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent))
+    prefix = f".{target.name}.{os.getpid()}."
     try:
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, suffix=".tmp", dir=target.parent))
         yield tmp
         _publish_mode(tmp, folder=True)  # what it holds was created with ordinary (umask) modes
         if target.exists():
@@ -121,8 +132,7 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
         else:
             os.replace(tmp, target)
     finally:
-        if tmp.exists():
-            shutil.rmtree(tmp)
+        _remove_own_temporaries(target.parent, prefix, ".tmp")
 
 
 def write_text(target: str | Path, text: str) -> None:
