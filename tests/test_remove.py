@@ -488,6 +488,51 @@ def test_leg_ends_hanging_below_the_object_go_with_it():
     assert not hanging_below(means, heights, up, removed, candidates, r=0.0).any()
 
 
+def test_upright_tells_standing_shapes_from_splats_lying_in_the_plane():
+    """Variance along the normal against the sum across it: a vertical needle and one tilted 30 deg
+    from the normal are upright; one tilted 60 deg, a flat floor splat and a round one are not."""
+    import math
+
+    from inpaint360gs.remove.removal import upright
+
+    def tilted(deg):  # rotation about x by deg (w, x, y, z)
+        h = math.radians(deg) / 2
+        return [math.cos(h), math.sin(h), 0.0, 0.0]
+
+    g = points_model(np.zeros((5, 3)))
+    with torch.no_grad():
+        g.log_scales[:] = torch.log(torch.tensor([[1e-3, 1e-3, 8e-3], [1e-3, 1e-3, 8e-3], [1e-3, 1e-3, 8e-3], [1e-2, 1e-2, 5e-4], [5e-3, 5e-3, 5e-3]]))
+        g.quats[:] = torch.tensor([tilted(0), tilted(30), tilted(60), tilted(0), tilted(0)])
+    assert upright(g, np.array([0.0, 0.0, 1.0])).tolist() == [True, True, False, False, False]
+    assert upright(g, np.array([0.0, 1.0, 0.0])).tolist() == [False, False, True, False, False]  # another normal
+
+
+def test_support_column_takes_upright_leg_ends_in_the_floor_band_not_the_floor():
+    """A leg of object 3 down to z = 0.3, background-labelled below it to 0.02 (what the 2D masks lose
+    to the floor), and in the guard band (|z| < 0.016) under it an upright needle (the leg's end on
+    the floor) and a flat floor splat: the column takes the leg end and the needle, the floor stays."""
+    leg = np.stack([np.zeros(40), np.zeros(40), np.linspace(0.02, 0.6, 40)], 1)
+    needle = np.array([[0.0, 0.0, 0.008]])
+    splat = np.array([[0.004, 0.0, 0.0]])
+    floor = np.stack([np.linspace(-0.5, 0.5, 21), np.full(21, 0.3), np.zeros(21)], 1)
+    field, part = hand_field([(leg[leg[:, 2] >= 0.3], 1), (leg[leg[:, 2] < 0.3], 0), (needle, 0), (splat, 0), (floor, 0)])
+    with torch.no_grad():
+        g = field.gaussians
+        g.log_scales[part == 2] = torch.log(torch.tensor([1e-4, 1e-4, 4e-3]))
+        g.log_scales[part == 3] = torch.log(torch.tensor([1e-2, 1e-2, 5e-4]))
+    means = g.means.numpy().astype(np.float64)
+    up = np.array([0.0, 0.0, 1.0])
+    kw = dict(heights=means[:, 2], radius=2.0, up=up)  # band 0.008 R = 0.016, column steps 0.01 R = 0.02
+    removed = remove_objects(field, [3], RemovalConfig(hull=False, support_column=0.01), **kw).removed_mask.numpy()
+    assert removed[part <= 2].all()
+    assert not removed[part >= 3].any()
+    # the needle as a flat splat: the band keeps it
+    with torch.no_grad():
+        g.log_scales[part == 2] = torch.log(torch.tensor([4e-3, 4e-3, 1e-4]))
+    removed = remove_objects(field, [3], RemovalConfig(hull=False, support_column=0.01), **kw).removed_mask.numpy()
+    assert removed[part <= 1].all() and not removed[part >= 2].any()
+
+
 def test_support_column_is_off_by_default_and_turned_on_by_the_cli(tmp_path):
     """The third removal step is opt-in: off in RemovalConfig and in `inpaint360gs remove`;
     `--support-column` alone gives 0.01, a value outside (0, 1] is refused."""

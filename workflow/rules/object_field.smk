@@ -101,6 +101,7 @@ rule remove:
         distill=lambda wc: f"{run_dir(wc)}/{wc.association}/distill",
         out=lambda wc: f"{run_dir(wc)}/{wc.association}/removed",
         clicks=_clicks,
+        extra=config.get("remove", {}).get("extra_args", ""),
     threads: 1
     resources:
         mem_mb=4000,
@@ -110,7 +111,7 @@ rule remove:
         f"{OUT}/benchmarks/{{scene}}/{{segmenter}}/{{association}}/remove.tsv"
     shell:
         "inpaint360gs remove {params.scene_dir:q} {params.distill:q} {params.out:q} {params.clicks}"
-        " --backend {params.backend} --threads {threads} --overwrite > {log:q} 2>&1"
+        " --backend {params.backend} --threads {threads} --overwrite {params.extra} > {log:q} 2>&1"
 
 
 rule render_removed:

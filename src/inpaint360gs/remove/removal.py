@@ -31,9 +31,11 @@ Removal of a selected object (the authors' public code; Gaussian Grouping uses t
    (``support_column``, off by default, 0.01 R when on; needs the support plane): grown step by step downwards, each within
    ``d ≤ 0.01 R`` horizontally of a removed Gaussian and lower than it by between ``d`` and
    ``0.02 R`` (a 45-degree cone, so the growth never spreads sideways along a level surface), down
-   to the guard band above the floor. These are thin parts near the floor — the benchmark stool's
-   leg ends — that the 2D masks lose to the floor, so distillation calls them background, and that
-   lie below the hull built from the object's own Gaussians.
+   to the guard band above the floor, and inside the band only through upright Gaussians (variance
+   along the plane's normal larger than across it: a floor splat is flat, a leg end standing on the
+   floor is not). These are thin parts near the floor — the benchmark stool's leg ends — that the
+   2D masks lose to the floor, so distillation calls them background, and that lie below the hull
+   built from the object's own Gaussians.
 
 The removed Gaussians are kept in ``removed.ply`` (with their features) so that they can be put back
 (occluders are removed and reinserted around the inpainting stage).
@@ -116,7 +118,8 @@ class RemovalConfig:
     # (x R) of a removed Gaussian, lower by at least that distance (a 45-degree cone down) and by at
     # most twice it, grown step by step down to the support guard band — go with the object: thin
     # parts near the floor (a stool's leg ends) that the 2D masks lose to the floor, so distillation
-    # calls them background and the hull, built from the object's Gaussians, ends above them.
+    # calls them background and the hull, built from the object's Gaussians, ends above them. Inside
+    # the guard band it continues only through upright Gaussians (see ``upright``): the floor stays.
     # Needs the support plane. None = off (the default and the authors' code; the committed benchmark
     # tables are made without it); `inpaint360gs remove --support-column` turns it on at 0.01.
     support_column: float | None = None
@@ -264,6 +267,18 @@ def hanging_below(means: np.ndarray, heights: np.ndarray, up: np.ndarray, remove
     return out
 
 
+def upright(gaussians: Gaussians, up: np.ndarray) -> np.ndarray:
+    """Gaussians whose variance along ``up`` exceeds their variance across it (the sum over the two
+    directions in the plane): shapes standing on a surface, never a splat lying in it."""
+    from inpaint360gs.render.projection import covariance_3d
+
+    with torch.no_grad():
+        cov = covariance_3d(gaussians.quats.detach().double(), gaussians.log_scales.detach().double()).cpu().numpy()
+    u = np.asarray(up, dtype=np.float64)
+    along = np.einsum("i,nij,j->n", u, cov, u)
+    return along > np.trace(cov, axis1=1, axis2=2) - along
+
+
 def support_heights(field_: IdentityField, scene: Scene) -> tuple[np.ndarray | None, float, str, np.ndarray | None]:
     """(height of every Gaussian above the support plane, orbit radius R, note, the plane's unit
     normal) from the training cameras and the opaque centres, as the geometric segmenter finds them;
@@ -309,6 +324,7 @@ def remove_objects(
     protected = (probs[:, others] > 0.5).any(dim=1).numpy() if (cfg.protect_others and others) else np.zeros(len(means), bool)
     if cfg.protect_background is not None and 0 in field_.object_ids:
         protected |= (probs[:, field_.object_ids.index(0)] > cfg.protect_background).numpy()
+    kept_by_choice = protected.copy()  # what the support column must keep too (the floor guard aside)
     if cfg.protect_support is not None and heights is not None and 0 in field_.object_ids:
         floor = np.abs(heights) < cfg.protect_support * radius
         protected |= floor & (probs[:, field_.object_ids.index(0)] > 0.5).numpy()
@@ -327,7 +343,10 @@ def remove_objects(
     if cfg.support_column is not None and heights is not None and up is not None and radius > 0 and 0 in field_.object_ids and remove.any():
         background = (probs[:, field_.object_ids.index(0)] > 0.5).numpy()
         band = cfg.protect_support * radius if cfg.protect_support is not None else 0.0
-        below = hanging_below(means, heights, np.asarray(up, dtype=np.float64), remove, background & ~protected & (heights > band), cfg.support_column * radius)
+        up = np.asarray(up, dtype=np.float64)
+        # in the guard band, only upright Gaussians (leg ends standing on the floor), never floor splats
+        reachable = (heights > band) | (upright(field_.gaussians, up) & (heights > -band))
+        below = hanging_below(means, heights, up, remove, background & ~kept_by_choice & reachable, cfg.support_column * radius)
         remove |= below
         counts["below"] = int(below.sum())
     if not remove.any():
