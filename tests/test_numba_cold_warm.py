@@ -1,4 +1,5 @@
-"""A training run that compiles the numba kernels (empty cache) equals one that loads them from the cache.
+"""A training run that compiles the numba kernels (empty cache) equals one that loads them from the cache,
+and so do the contribution lists computed from its result (the distillation's rendering).
 
 Regression test: the run that compiled the kernels used to differ at float-rounding level from every
 later run, from the first rendered image on. Numba compiles each jitted helper a kernel calls as its own
@@ -58,13 +59,20 @@ import re, sys
 import numba
 from llvmlite.binding import Linkage
 from inpaint360gs.cli import main
-from inpaint360gs.render import numba_kernels, numba_projection
+from inpaint360gs.render import numba_contrib, numba_kernels, numba_projection
 
 report, args = sys.argv[1], sys.argv[2:]
 rc = main(["train", *args])
+if rc == 0:  # the contribution lists (what the distillation renders identity features through) of the result
+    import numpy as np
+    from inpaint360gs.io.ply import read_ply
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.render.contributions import contributions
+    c = contributions(read_ply(args[1] + "/point_cloud.ply"), load_scene(args[0]).train_views[0].camera, backend="numba")
+    np.savez(args[1] + "/contributions.npz", indptr=c.indptr.numpy(), cols=c.cols.numpy(), vals=c.vals.numpy())
 rounding = re.compile(r"= (?:tail |notail )?(?:fadd|fsub|fmul|fdiv|frem|call) (?:[a-z]+ )*?(?:reassoc|contract|arcp|afn|fast)\b")
 lines = []
-for mod in (numba_kernels, numba_projection):
+for mod in (numba_kernels, numba_projection, numba_contrib):
     for name, disp in sorted(vars(mod).items()):
         if isinstance(disp, numba.core.registry.CPUDispatcher):
             for cres in disp.overloads.values():
@@ -114,5 +122,7 @@ def test_cold_and_warm_kernel_cache_train_identically(tmp_path):
     assert cold == warm, "the run that compiled the numba kernels and the run that loaded them from the cache differ; " + "\n".join(
         ["fast-math code that kernels carry as linked copies:", *copies]
     )
+    cold_c, warm_c = (np.load(tmp_path / run / "contributions.npz") for run in ("cold", "warm"))
+    assert all(np.array_equal(cold_c[k], warm_c[k]) for k in ("indptr", "cols", "vals")), "contribution lists differ between cold and warm cache"
     # the cause, checked directly (a scene can happen not to show it): no kernel carries a linked copy of fast-math code
     assert not copies, "\n".join(copies)

@@ -5,7 +5,11 @@ same depth order, same row ranges, and its per-Gaussian pixel loop :func:`._fwd_
 computes alpha with the same polynomial exp, the 0.99 clamp, the 1/255 skip and the T < 1e-4 stop),
 so the weights are the ones the forward pass multiplies channels by, and ``sum_i w_i c_i`` equals
 the rendered channel up to float rounding. Two passes over the tiles: count the contributions of
-each tile, then fill them at the tile's offset; both parallel over tiles as in the forward kernel.
+each tile, then fill them at the tile's offset; both parallel over tiles as in the forward kernel,
+and built like it for cold/warm-cache reproducibility (the tile walk inlined, one ``nogil`` worker
+kernel per Python thread, no ``prange``: see the :mod:`.numba_kernels` docstring; with a fast-math
+helper called from a ``prange`` body, the distillation run that compiled the kernels and one that
+loaded them from the cache gave different bits).
 The result comes in (tile, depth, pixel) order; :func:`to_csr` regroups it by pixel with a stable
 counting sort, so each pixel's entries stay front to back.
 
@@ -19,7 +23,7 @@ import numpy as np
 import inpaint360gs.render.numba_cache  # noqa: F401  (sets the cache folder before the kernels are defined)
 from numba import njit, prange  # isort: skip
 
-from inpaint360gs.render.numba_kernels import _F_L, _F_ROWS, _F_T, _F_W, _OPTS, NPIX, U, _fwd_gaussian, _row_range
+from inpaint360gs.render.numba_kernels import _F_L, _F_ROWS, _F_T, _F_W, _OPTS, NPIX, U, _fwd_gaussian, _row_range, _run_workers
 from inpaint360gs.render.tiles import TILE
 
 f32 = np.float32
@@ -27,7 +31,7 @@ _ZERO, _ONE, _HALF = f32(0.0), f32(1.0), f32(0.5)
 _U16 = U(16)
 
 
-@njit(**_OPTS)
+@njit(inline="always", **_OPTS)
 def _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, fill, start, pix_out, gid_out, w_out):
     """Walk tile ``t`` front to back (the forward kernel's loop); count its contributions or, with
     ``fill``, write them from index ``start``. Returns the count."""
@@ -69,32 +73,37 @@ def _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, fill, start, pi
     return n
 
 
-@njit(parallel=True, **_OPTS)
-def tile_counts(pk, offsets, gids, order, n_workers, width, height, tiles_x):
-    """Pass 1: contributions per tile (n_tiles,), tiles dealt to workers as in the forward kernel."""
-    n_tiles = offsets.shape[0] - 1
-    counts = np.zeros(n_tiles, np.int64)
+@njit(nogil=True, **_OPTS)
+def _count_worker(w, n_workers, pk, offsets, gids, order, width, height, tiles_x, counts):
+    st = np.empty(_F_ROWS * NPIX, np.float32)
     dummy_i = np.zeros(0, np.int32)
     dummy_f = np.zeros(0, np.float32)
-    for w in prange(n_workers):
-        st = np.empty(_F_ROWS * NPIX, np.float32)
-        for j in range(w, order.shape[0], n_workers):
-            t = order[j]
-            counts[t] = _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, False, 0, dummy_i, dummy_i, dummy_f)
+    for j in range(w, order.shape[0], n_workers):
+        t = order[j]
+        counts[t] = _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, False, 0, dummy_i, dummy_i, dummy_f)
+
+
+@njit(nogil=True, **_OPTS)
+def _fill_worker(w, n_workers, pk, offsets, gids, order, width, height, tiles_x, starts, pix, gid, wts):
+    st = np.empty(_F_ROWS * NPIX, np.float32)
+    for j in range(w, order.shape[0], n_workers):
+        t = order[j]
+        _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, True, starts[t], pix, gid, wts)
+
+
+def tile_counts(pk, offsets, gids, order, n_workers, width, height, tiles_x):
+    """Pass 1: contributions per tile (n_tiles,), tiles dealt to workers as in the forward kernel."""
+    counts = np.zeros(offsets.shape[0] - 1, np.int64)
+    _run_workers(_count_worker, n_workers, (pk, offsets, gids, order, width, height, tiles_x, counts))
     return counts
 
 
-@njit(parallel=True, **_OPTS)
 def tile_fill(pk, offsets, gids, order, n_workers, width, height, tiles_x, starts, nnz):
     """Pass 2: (pixel (nnz,) int32, Gaussian (nnz,) int32, weight (nnz,) float32), tile t's entries from starts[t]."""
     pix = np.empty(nnz, np.int32)
     gid = np.empty(nnz, np.int32)
     wts = np.empty(nnz, np.float32)
-    for w in prange(n_workers):
-        st = np.empty(_F_ROWS * NPIX, np.float32)
-        for j in range(w, order.shape[0], n_workers):
-            t = order[j]
-            _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, True, starts[t], pix, gid, wts)
+    _run_workers(_fill_worker, n_workers, (pk, offsets, gids, order, width, height, tiles_x, starts, pix, gid, wts))
     return pix, gid, wts
 
 
