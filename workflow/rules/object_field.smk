@@ -101,7 +101,7 @@ rule remove:
         distill=lambda wc: f"{run_dir(wc)}/{wc.association}/distill",
         out=lambda wc: f"{run_dir(wc)}/{wc.association}/removed",
         clicks=_clicks,
-        extra=config.get("remove", {}).get("extra_args", ""),
+        extra=config["remove"]["extra_args"],
     threads: 1
     resources:
         mem_mb=4000,
