@@ -533,20 +533,24 @@ def test_support_column_takes_upright_leg_ends_in_the_floor_band_not_the_floor()
     assert removed[part <= 1].all() and not removed[part >= 2].any()
 
 
-def test_support_column_is_off_by_default_and_turned_on_by_the_cli(tmp_path):
-    """The third removal step is opt-in: off in RemovalConfig and in `inpaint360gs remove`;
-    `--support-column` alone gives 0.01, a value outside (0, 1] is refused."""
+def test_support_column_is_on_by_default_and_turned_off_by_the_cli(tmp_path):
+    """The third removal step is on at 0.01 in RemovalConfig and in `inpaint360gs remove`;
+    `--no-support-column` turns it off (the authors' code), `--support-column R` sets R,
+    a value outside (0, 1] is refused, and the two flags exclude each other."""
     import argparse
 
     from inpaint360gs.cli.remove import add_arguments
     from inpaint360gs.remove.removal import RemovalConfig
 
-    assert RemovalConfig().support_column is None
+    assert RemovalConfig().support_column == 0.01
     parser = argparse.ArgumentParser()
     add_arguments(parser)
     base = [str(tmp_path), str(tmp_path), str(tmp_path / "out")]
-    assert parser.parse_args(base).support_column is None
+    assert parser.parse_args(base).support_column == 0.01
+    assert parser.parse_args(base + ["--no-support-column"]).support_column is None
     assert parser.parse_args(base + ["--support-column"]).support_column == 0.01
     assert parser.parse_args(base + ["--support-column", "0.02"]).support_column == 0.02
+    with pytest.raises(SystemExit):
+        parser.parse_args(base + ["--support-column", "0.02", "--no-support-column"])
     with pytest.raises(SystemExit):
         parser.parse_args(base + ["--support-column", "1.5"])

@@ -26,9 +26,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-hull", action="store_true", help="do not also remove what lies inside the convex hull of the selected Gaussians")
     parser.add_argument("--no-protect-support", action="store_true",
                         help="let the hull step take background Gaussians on the support plane too (the authors' code; default: kept)")
-    parser.add_argument("--support-column", type=fraction, nargs="?", const=0.01, default=None, metavar="R",
+    column = parser.add_mutually_exclusive_group()
+    column.add_argument("--support-column", type=fraction, nargs="?", const=d.support_column, default=d.support_column, metavar="R",
                         help="also take background Gaussians hanging below the removed ones, in steps of at most R x the orbit radius "
-                             "(thin parts near the floor, e.g. a stool's leg ends; R = 0.01 when given without a value; default: off)")
+                             f"(thin parts near the floor, e.g. a stool's leg ends; default: on, R = {d.support_column})")
+    column.add_argument("--no-support-column", dest="support_column", action="store_const", const=None,
+                        help="do not (the authors' code)")
     parser.add_argument("--protect-background", type=fraction, default=None, metavar="P", help="the hull step keeps Gaussians whose background probability exceeds P (default: off, as the authors' code)")
     parser.add_argument("--resize", type=positive_int, default=1)
     parser.add_argument("--llffhold", type=nonneg_int, default=8)
