@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+import yaml
 
 results, n_runs = Path(sys.argv[1]), int(sys.argv[2])
 problems = []
@@ -37,7 +38,11 @@ try:
     for key in ("git_commit", "config", "packages", "machine", "weights"):
         if key not in prov:
             problems.append(f"provenance.json lacks {key}")
-except (OSError, ValueError) as e:
+    # the recorded configuration is this run's (written with the tables), not an older file's
+    used = yaml.safe_load(prov.get("config", {}).get("content") or "") or {}
+    if Path(str(used.get("results_dir"))).resolve() != results.resolve():
+        problems.append(f"provenance.json records the config of another run (results_dir {used.get('results_dir')!r})")
+except (OSError, ValueError, yaml.YAMLError) as e:
     problems.append(f"provenance.json unreadable ({type(e).__name__})")
 if problems:
     print("tables incomplete: " + "; ".join(problems))
