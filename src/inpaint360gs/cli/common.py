@@ -235,10 +235,19 @@ def add_threads_argument(parser: argparse.ArgumentParser) -> None:
 
 
 def set_threads(n: int) -> None:
-    """Limit torch's and numba's thread pools (both matter on a small shared CPU)."""
+    """Limit torch's and numba's thread pools (both matter on a small shared CPU); make torch's first
+    multi-threaded vector-math call reproducible (see below)."""
     import torch
 
     torch.set_num_threads(max(1, n))
+    # torch computes exp, sqrt, log, ... on CPU with MKL's vector-math (VML) functions, splitting arrays
+    # of more than a few thousand elements over its threads. Measured here (torch 2.x CPU wheel, 2
+    # threads): when the process's *first* such call runs on two threads at once, in about one process
+    # in ten one thread's half of the output rounds differently (e.g. 1492 of 2987 sqrt values), so
+    # the same training run differed at rounding level from run to run. One tiny call on this thread
+    # alone, before any parallel work, does that first-call set-up; afterwards every run gave the same bits.
+    for dtype in (torch.float32, torch.float64):
+        torch.ones(1, dtype=dtype).exp()
     try:
         import numba
 
