@@ -80,12 +80,13 @@ def fill_geometry(args, scenes: list[str]) -> None:
     import numpy as np
     import torch
 
+    from inpaint360gs.cli.common import set_threads
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.render.api import render
     from inpaint360gs.views.unseen import normalised_depth
 
-    torch.set_num_threads(args.threads)
+    set_threads(args.threads)  # also makes torch's first multi-threaded vector-math call reproducible
     print("\nGeometry of the fill at the test_ cameras (inside the unseen mask, vs gt/depth without the objects):")
     print("| scene | method | median relative depth error | pixels off by > 5% | pixels left empty | texture: mean abs Laplacian |\n|---|---|---|---|---|---|")
     kernel = np.ones((3, 3), np.uint8)

@@ -178,7 +178,9 @@ def main() -> int:
     ap.add_argument("--workflow", type=Path, default=None, help="score what the workflow wrote under this out_dir instead of running the stages")
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT))
-    torch.set_num_threads(args.threads)
+    from inpaint360gs.cli.common import set_threads
+
+    set_threads(args.threads)  # also makes torch's first multi-threaded vector-math call reproducible
     from inpaint360gs.distill.field import IdentityField
 
     rows = []
