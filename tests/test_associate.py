@@ -205,3 +205,27 @@ def test_a_merged_segment_is_divided_between_the_objects():
     out, sizes = _kom(segs, cams, means, AssociationConfig(merge_share=0.0).resolved())
     assert (out[1][10:30, 10:30] == out[1][10, 10]).all()  # one id over both objects
     assert sizes.max() == 400
+
+
+def test_pieces_founded_apart_are_joined_when_more_views_see_them_as_one():
+    """The object's first view splits it in two halves, which found two objects (nothing to match yet);
+    two later views see it whole, and each whole segment is divided between the two halves' sets.
+    Two views segmented the pair as one, one as two: the halves are joined into one id in every view
+    and their sets into one. Without the step the halves keep their two ids."""
+    from inpaint360gs.segment.associate import _kom
+
+    cam, means = _flat_scene()
+    halves = np.zeros((40, 40), np.uint16)
+    halves[10:30, 10:20] = 3
+    halves[10:30, 20:30] = 8
+    whole = np.zeros((40, 40), np.uint16)
+    whole[10:30, 10:30] = 1
+    segs, cams = [halves, whole, whole], [cam] * 3
+    out, sizes = _kom(segs, cams, means, AssociationConfig().resolved())
+    assert list(sizes) == [400]
+    assert all((o[10:30, 10:30] == 1).all() and (o > 0).sum() == 400 for o in out)
+    out, sizes = _kom(segs, cams, means, AssociationConfig(consolidate=False).resolved())
+    assert list(sizes) == [200, 200] and (out[1][10:30, 10:20] == 1).all() and (out[1][10:30, 20:30] == 2).all()
+    # seen as two in two views and as one in one (the merged-segment case): they stay two objects
+    out, sizes = _kom([halves, whole, halves], cams, means, AssociationConfig().resolved())
+    assert list(sizes) == [200, 200] and (out[2][10:30, 20:30] == 2).all()

@@ -62,6 +62,31 @@ def test_damage_keeps_most_of_each_object_and_shuffles_ids():
     assert splits > 5 and merges > 2  # both kinds of damage happen at the default rates
 
 
+def test_erosion_of_a_thin_object_keeps_the_share_a_disk_keeps():
+    """A 4-px wide, 60-px long bar: its equivalent radius (8.7 px) allows a 1-px erosion at
+    edge_rel 0.15 and 2 px at 0.25, but a 2-px erosion leaves nothing of it and 1 px half. The share
+    rule (a disk eroded by edge_rel x its radius keeps (1 - edge_rel)^2) shrinks the radius until
+    that share holds, else leaves the bar as it is; a disk is eroded as before."""
+    from inpaint360gs.segment.oracle import _erode
+
+    bar = np.zeros((40, 80), bool)
+    bar[18:22, 10:70] = True
+    assert _erode(bar, 2, (1 - 0.15) ** 2, 10).sum() == bar.sum()  # 1 px would take half: left as it was
+    wide = np.zeros((40, 80), bool)
+    wide[10:30, 10:70] = True  # 20 px wide: 1 px takes ~13%, 2 px ~26%, 3 px ~38%
+    kept = _erode(wide, 3, (1 - 0.15) ** 2, 10).sum() / wide.sum()
+    assert (1 - 0.15) ** 2 <= kept < 0.8  # the largest radius that keeps 72%: 2 px
+    yy, xx = np.mgrid[:80, :80]
+    disk = (yy - 40) ** 2 + (xx - 40) ** 2 <= 20**2
+    import cv2
+
+    two = cv2.erode(disk.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))).astype(bool)
+    assert np.array_equal(_erode(disk, 2, (1 - 0.15) ** 2, 10), two)  # 2 px of a 20-px disk: within the share
+    for s in range(40):  # through damage(): the bar never loses more than a disk would
+        ids = damage(bar.astype(np.uint8), OracleConfig(split_prob=0, merge_prob=0), _rng(s))
+        assert (ids[bar] > 0).mean() >= (1 - 0.15) ** 2
+
+
 def test_no_damage_settings_give_the_ground_truth_up_to_ids():
     gt = instance_image()
     gt[5, 5:8] = 0

@@ -27,6 +27,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"a segment below the GS-IoU threshold with at least this share of its Gaussians in one object's set is a part of it (default {d.part_share}; 0 = off, Alg. 1 alone)")
     parser.add_argument("--merge-share", type=fraction, default=d.merge_share,
                         help=f"a segment holding at least this share of each of two objects' sets is a merge and is divided between them (default {d.merge_share}; 0 = off)")
+    parser.add_argument("--no-consolidate", dest="consolidate", action="store_false",
+                        help="keep objects apart that more views segmented as one than as two (default: join them after the pass)")
     parser.add_argument("--patch", type=positive_int, default=d.patch, help=f"patch size in pixels (default {d.patch})")
     parser.add_argument("--min-segment-pixels", type=nonneg_int, default=d.min_segment_pixels)
     parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor of the scene")
@@ -43,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = AssociationConfig(
         method=args.method, variant=args.variant, sigma=args.sigma, keep_near=args.keep_near,
         patch=args.patch, min_segment_pixels=args.min_segment_pixels, compare=args.compare,
-        part_share=args.part_share, merge_share=args.merge_share,
+        part_share=args.part_share, merge_share=args.merge_share, consolidate=args.consolidate,
     ).resolved()  # fmt: skip
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     model = read_ply(args.model)

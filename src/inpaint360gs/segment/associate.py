@@ -23,9 +23,9 @@ through the Gaussians they cover. For each view in capture order:
    "visible"``) each set is therefore compared through the Gaussians the current view labels (the
    near clusters of all its segments): the database as seen from this view. ``compare="all"`` is
    the literal reading.
-   **Parts and merges** (beyond Alg. 1; ``part_share=0, merge_share=0`` gives Alg. 1 alone). An
-   automatic segmenter also cuts objects in pieces and joins touching ones (the ``oracle``
-   segmenter's damage imitates both). A piece of a known object scores at most its size over the
+   **Parts and merges** (beyond Alg. 1; ``part_share=0, merge_share=0`` gives Alg. 1 alone: with no
+   divided segment the consolidation below has nothing to join). An automatic segmenter also cuts
+   objects in pieces and joins touching ones (the ``oracle`` segmenter's damage imitates both). A piece of a known object scores at most its size over the
    object's, so below σ it founds a new id, which then competes with the object's own in later
    views and takes it over (measured on ``fruits`` with damaged masks: the apple switches ids at
    view 21 and keeps the new one). So a segment below σ whose Gaussians lie mostly (``part_share``
@@ -35,6 +35,12 @@ through the Gaussians they cover. For each view in capture order:
    more objects' sets (as seen from this view, each also ≥ 20% of the segment) is divided: each
    Gaussian goes to the object whose set holds it, each pixel to the object of its nearest such
    projected Gaussian, and nothing joins a set it does not already belong to.
+   **Pieces founded apart** (``consolidate``, beyond Alg. 1). When an object's first views cut it in
+   pieces, each piece founds an object before the whole was ever seen, and every later whole segment
+   is then divided between them as if it were a merge. Whether two database objects are one is
+   decided by the views: after the pass, two objects are joined (ids and sets) when more views
+   segmented them as one segment (a divided segment) than as two different segments; two touching
+   objects that a segmenter merges now and then are seen apart in most views and stay two.
 4. The view's associated mask is its segments relabelled with these ids; pixels outside any
    segment, and segments that cover no Gaussian or fewer than ``min_segment_pixels`` pixels, are
    background (0).
@@ -83,6 +89,7 @@ class AssociationConfig:
     # Beyond Alg. 1 (both 0 = the paper's rule alone; see the module docstring, "Parts and merges"):
     part_share: float = 0.6  # an unmatched segment with at least this share of its Gaussians in one object's set is a part of it
     merge_share: float = 0.5  # a segment holding at least this share of each of two or more objects' sets (as seen) is a merge: split between them
+    consolidate: bool = True  # after the pass, join objects that more views segmented as one than as two
 
     def resolved(self) -> AssociationConfig:
         if self.method not in ("kom", "tracker"):
@@ -196,6 +203,8 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
     db = np.zeros((0, n), dtype=bool)
     db_sizes = np.zeros(0)
     out = []
+    together: dict[tuple[int, int], int] = {}  # object pairs: views where one segment covered both ...
+    apart: dict[tuple[int, int], int] = {}  # ... and views where two segments took them
     for seg, cam in zip(segs, cams):
         u, v, z, idx = project_centres(means, cam)
         labels = seg[v, u].astype(np.int64)
@@ -211,6 +220,7 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
             pos = np.full(n, -1, dtype=np.int64)
             pos[labelable] = np.arange(labelable.size)
         pieces = {}  # merged segments: segment id -> (pixel labels of its members, their projections)
+        both_of = {}  # merged segments: segment id -> the database rows it was divided between
         for s in ids:
             in_s = near & (labels == s)
             members = np.unique(idx[in_s])
@@ -230,6 +240,7 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
                         g_owner = np.full(n, -1, dtype=np.int64)
                         g_owner[members] = np.where(owner >= 0, both[np.maximum(owner, 0)] + 1, -1)
                         pieces[s] = (g_owner[idx[in_s]], u[in_s], v[in_s])
+                        both_of[s] = [int(b) for b in both]
                         continue
                 score = gs_iou(seen, sizes, cols, cfg.variant)
                 j = int(np.argmax(score))
@@ -254,7 +265,55 @@ def _kom(segs: Sequence[np.ndarray], cams: Sequence[Camera], means: np.ndarray, 
         for s, (g_lab, gu, gv) in pieces.items():
             mask = _split_pixels(mask, seg == s, g_lab, gu, gv)
         out.append(mask)
+        if cfg.consolidate:
+            _count_pairs([{int(lut[s]) - 1} for s in ids if lut[s] and s not in pieces], [set(both_of[s]) for s in pieces], together, apart)
+    if cfg.consolidate and together:
+        out, db = _consolidate(out, db, together, apart)
+        db_sizes = db.sum(axis=1).astype(np.float64)
     return out, db_sizes
+
+
+def _count_pairs(matched: list[set[int]], divided: list[set[int]], together: dict, apart: dict) -> None:
+    """One view's evidence on pairs of database objects: ``together`` when one segment covered both
+    (a divided segment), ``apart`` when two different segments of the view took them."""
+    for ids in divided:
+        for pair in {(a, b) for a in ids for b in ids if a < b}:
+            together[pair] = together.get(pair, 0) + 1
+    groups = matched + divided
+    seen = set()
+    for i, gi in enumerate(groups):
+        for gj in groups[i + 1 :]:
+            seen |= {(min(a, b), max(a, b)) for a in gi for b in gj if a != b}
+    for pair in seen:
+        apart[pair] = apart.get(pair, 0) + 1
+
+
+def _consolidate(masks: list[np.ndarray], db: np.ndarray, together: dict, apart: dict) -> tuple[list[np.ndarray], np.ndarray]:
+    """Join database objects that more views segmented as one than as two (pieces of one object
+    founded apart), renumber the ids 1..n in their first order, relabel every view."""
+    parent = list(range(len(db)))
+
+    def root(a: int) -> int:
+        while parent[a] != a:
+            a = parent[a]
+        return a
+
+    for (a, b), n in sorted(together.items()):
+        if n > apart.get((a, b), 0):
+            ra, rb = root(a), root(b)
+            parent[max(ra, rb)] = min(ra, rb)
+    roots = np.array([root(a) for a in range(len(db))])
+    if (roots == np.arange(len(db))).all():
+        return masks, db
+    keep = np.unique(roots)
+    new_id = np.zeros(len(db), dtype=np.int64)
+    new_id[keep] = np.arange(1, len(keep) + 1)
+    lut = np.zeros(len(db) + 1, dtype=np.uint8)
+    lut[1:] = new_id[roots]
+    merged = np.zeros((len(keep), db.shape[1]), dtype=bool)
+    for a in range(len(db)):
+        merged[new_id[roots[a]] - 1] |= db[a]
+    return [lut[m] for m in masks], merged
 
 
 def _merge_owner(sets: np.ndarray, inter: np.ndarray) -> np.ndarray:
