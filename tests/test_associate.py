@@ -184,6 +184,16 @@ def test_a_small_split_part_joins_its_object():
     assert len(sizes) == 2 and (out[1][28:30, 10:30] == 2).all()
 
 
+def _two_or_one_segment() -> tuple[np.ndarray, np.ndarray]:
+    """Segments of :func:`_flat_scene`'s square: two (columns 10-19 and 20-29, ids 5 and 9), or one."""
+    two = np.zeros((40, 40), np.uint16)
+    two[10:30, 10:20] = 5
+    two[10:30, 20:30] = 9
+    one = np.zeros((40, 40), np.uint16)
+    one[10:30, 10:30] = 2
+    return two, one
+
+
 def test_a_merged_segment_is_divided_between_the_objects():
     """Two objects side by side (columns 10-19 and 20-29), seen apart, then merged into one segment:
     its pixels go to the two ids by the Gaussians behind them and neither set takes the other's
@@ -192,11 +202,7 @@ def test_a_merged_segment_is_divided_between_the_objects():
     from inpaint360gs.segment.associate import _kom
 
     cam, means = _flat_scene()
-    apart = np.zeros((40, 40), np.uint16)
-    apart[10:30, 10:20] = 5
-    apart[10:30, 20:30] = 9
-    merged = np.zeros((40, 40), np.uint16)
-    merged[10:30, 10:30] = 2
+    apart, merged = _two_or_one_segment()
     segs, cams = [apart, merged, apart], [cam] * 3
     out, sizes = _kom(segs, cams, means, AssociationConfig().resolved())
     assert len(sizes) == 2 and list(sizes) == [200, 200]
@@ -215,11 +221,7 @@ def test_pieces_founded_apart_are_joined_when_more_views_see_them_as_one():
     from inpaint360gs.segment.associate import _kom
 
     cam, means = _flat_scene()
-    halves = np.zeros((40, 40), np.uint16)
-    halves[10:30, 10:20] = 3
-    halves[10:30, 20:30] = 8
-    whole = np.zeros((40, 40), np.uint16)
-    whole[10:30, 10:30] = 1
+    halves, whole = _two_or_one_segment()
     segs, cams = [halves, whole, whole], [cam] * 3
     out, sizes = _kom(segs, cams, means, AssociationConfig().resolved())
     assert list(sizes) == [400]
