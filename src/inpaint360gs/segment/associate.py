@@ -291,18 +291,13 @@ def _count_pairs(matched: list[set[int]], divided: list[set[int]], together: dic
 def _consolidate(masks: list[np.ndarray], db: np.ndarray, together: dict, apart: dict) -> tuple[list[np.ndarray], np.ndarray]:
     """Join database objects that more views segmented as one than as two (pieces of one object
     founded apart), renumber the ids 1..n in their first order, relabel every view."""
-    parent = list(range(len(db)))
+    from scipy.cluster.hierarchy import DisjointSet
 
-    def root(a: int) -> int:
-        while parent[a] != a:
-            a = parent[a]
-        return a
-
-    for (a, b), n in sorted(together.items()):
+    groups = DisjointSet(range(len(db)))
+    for (a, b), n in together.items():
         if n > apart.get((a, b), 0):
-            ra, rb = root(a), root(b)
-            parent[max(ra, rb)] = min(ra, rb)
-    roots = np.array([root(a) for a in range(len(db))])
+            groups.merge(a, b)
+    roots = np.array([min(groups.subset(a)) for a in range(len(db))])  # each group named by its first object
     if (roots == np.arange(len(db))).all():
         return masks, db
     keep = np.unique(roots)
