@@ -462,6 +462,21 @@ def test_object_body_keeps_sparse_parts_inside_the_body_and_drops_far_strays():
     assert not object_body(pts, link=4.0, min_part=0.1, near=0.0)[n : n + 3].any()
 
 
+def test_removal_keeps_a_piece_under_the_body_within_half_its_size():
+    """The removal's default margin: a sparse piece under the body at 0.35 x its height (a watering
+    can's lower part split off the linking graph) belongs to the object; at 0.25 it would not."""
+    from inpaint360gs.remove.removal import RemovalConfig, object_body
+
+    g = np.arange(0.0, 1.0001, 0.05)
+    dense = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    under = np.array([[0.5, 0.5, -0.35], [0.3, 0.6, -0.36], [0.7, 0.4, -0.35]])
+    pts = np.concatenate([dense, under])
+    n = len(dense)
+    cfg = RemovalConfig()
+    assert object_body(pts, cfg.link, cfg.min_part, cfg.body_margin)[n:].all()
+    assert not object_body(pts, cfg.link, cfg.min_part, 0.25)[n:].any()
+
+
 def test_leg_ends_hanging_below_the_object_go_with_it():
     """A leg: removed Gaussians from z = 0.3 up, background-labelled ones below it down to the floor
     (what the 2D masks lose near the floor). The steps down take the leg's end above the support

@@ -14,8 +14,10 @@ Removal of a selected object (the authors' public code; Gaussian Grouping uses t
    the threshold by chance. The selected centres are therefore grouped into connected components
    (centres closer than ``link`` times their median nearest-neighbour spacing are linked), and only
    components holding at least ``min_part`` of the largest one's Gaussians count as the object,
-   plus smaller pieces inside that body's bounding box grown by ``body_margin`` of its size (parts
-   3DGS reconstructed sparsely, e.g. the far side of a ball, split off the graph);
+   plus smaller pieces inside that body's bounding box grown by ``body_margin`` (0.5) of its size
+   (parts 3DGS reconstructed sparsely and split off the graph: the far side of a ball; the benchmark
+   watering can's lower part, whose pieces lie between 25% and 50% of its height under the body's
+   box, so that a 25% margin left 12% of its footprint standing);
 2. so does every Gaussian inside the convex hull (Delaunay) of the object's centres, after a
    statistical outlier filter (centres whose mean distance to their k nearest selected neighbours
    is more than ``outlier_std`` standard deviations above the mean) so that a few stray
@@ -102,7 +104,7 @@ class RemovalConfig:
     outlier_std: float = 2.0  # ... and the cut in standard deviations above the mean distance
     link: float = 4.0  # selected centres closer than this x their median nearest-neighbour spacing are one body
     min_part: float = 0.1  # components with fewer than this share of the largest one's Gaussians are not the object
-    body_margin: float = 0.25  # ... unless they lie inside the body's bounding box grown by this share of its size
+    body_margin: float = 0.5  # ... unless they lie inside the body's bounding box grown by this share of its size
     protect_others: bool = True  # keep Gaussians with probability > 0.5 of another (non-background) object
     # The hull step keeps Gaussians whose background probability exceeds this (None = off, the authors'
     # code). The hull of an object standing on the floor reaches down to the floor and takes the floor
