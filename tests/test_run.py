@@ -25,7 +25,7 @@ from inpaint360gs.distill.config import DistillConfig
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.pipeline.run import STAGES, RunConfig, Runner
+from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner
 from inpaint360gs.remove.removal import Click, RemovalConfig
 from inpaint360gs.segment.associate import AssociationConfig
 
@@ -92,7 +92,8 @@ def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_st
     assert done == [("train", "given"), *((s, "ran") for s in STAGES[1:])]
     assert ran == list(STAGES[1:])
     record = json.loads((out / "run.json").read_text())
-    assert set(record) == set(STAGES[1:])
+    assert set(record) == set(STAGES[1:]) | {SECONDS_KEY}
+    assert set(record[SECONDS_KEY]) == set(STAGES[1:]) and all(t >= 0 for t in record[SECONDS_KEY].values())  # wall time of each stage that ran
 
     done, ran = stub_run(tiny, out, cfg, model=model)  # nothing changed
     assert ran == [] and done == [("train", "given"), *((s, "up to date") for s in STAGES[1:])]
@@ -176,7 +177,7 @@ def test_a_failed_stage_keeps_what_came_before(tiny, tmp_path):
     out, model = tmp_path / "out", tiny[1]
     with pytest.raises(InputError, match="distill failed"):
         stub_run(tiny, out, model=model, fail="distill")
-    assert set(json.loads((out / "run.json").read_text())) == {"segment", "associate"}
+    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate"}
     assert stub_run(tiny, out, model=model)[1] == ["distill", "remove", "inpaint"]
 
 
@@ -234,7 +235,7 @@ def test_cli_run_with_the_real_stages(tiny, tmp_path, capsys):
     assert main(argv("--click", f"{VIEW}:0,0")) == 2  # nothing rendered there
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "on the background" in err[0]
-    assert set(json.loads((out / "run.json").read_text())) == {"segment", "associate", "distill"}
+    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate", "distill"}
     assert not (out / "removed").exists()
 
     assert main(argv("--id", "1")) == 0

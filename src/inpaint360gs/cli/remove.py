@@ -10,7 +10,7 @@ from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, 
 
 
 def add_click_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--click", action="append", default=[], metavar="VIEW:X,Y", help="a pixel (column X, row Y) inside the object in a training view; repeat for several objects (default: the clicks scene.json names)")
+    parser.add_argument("--click", action="append", default=[], metavar="VIEW:X,Y", help="a pixel (column X, row Y, in the image as it lies in images/) inside the object in a training view; repeat for several objects (default: the clicks scene.json names)")
     parser.add_argument("--id", action="append", type=positive_int, default=[], help="an object id read off the rendered id map; repeatable")
 
 

@@ -29,7 +29,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--distill-iterations", type=positive_int, default=2000)
     add_inpaint_arguments(parser)
     parser.add_argument("--seed", type=nonneg_int, default=0)
-    parser.add_argument("--resize", type=positive_int, default=1)
+    parser.add_argument("--resize", type=positive_int, default=1, help="work on the images downscaled by this factor (images_<R>/ when present, else "
+                        "images/ shrunk on read); clicks stay in the coordinates of images/ (default 1)")
     parser.add_argument("--no-progress", action="store_true")
     add_backend_argument(parser)
     add_threads_argument(parser)

@@ -47,6 +47,7 @@ class View:
     image_id: int
     camera_id: int
     resize_on_load: bool = False  # pixels come from images/ at full size and are downscaled on read
+    full_size: tuple[int, int] | None = None  # (width, height) of the image in images/ (None: the camera's)
 
     @property
     def stem(self) -> str:
@@ -229,7 +230,7 @@ def load_scene(
             if image_size(src) != (full.width, full.height):
                 w, h = image_size(src)
                 raise InputError(f"image is {w}x{h} but camera {im.camera_id} is {full.width}x{full.height}", src)
-        entries.append((im.name, camera, path, int(image_id), int(im.camera_id), resize > 1 and not use_scaled))
+        entries.append((im.name, camera, path, int(image_id), int(im.camera_id), resize > 1 and not use_scaled, (full.width, full.height)))
 
     registered = {e[0] for e in entries}
     extra = sorted(_disk_images(images_dir) - registered)
@@ -241,7 +242,7 @@ def load_scene(
 
     entries.sort(key=lambda e: e[0])
     splits = layout.assign_splits([e[0] for e in entries], llffhold)
-    views = [View(name, splits[name], camera, path, image_id, camera_id, on_load) for name, camera, path, image_id, camera_id, on_load in entries]
+    views = [View(name, splits[name], camera, path, image_id, camera_id, on_load, size) for name, camera, path, image_id, camera_id, on_load, size in entries]
     if not any(v.split == "train" for v in views):
         n_test = sum(v.split == "test" for v in views)
         raise InputError(

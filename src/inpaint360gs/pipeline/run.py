@@ -14,6 +14,8 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,6 +31,11 @@ from inpaint360gs.segment.associate import AssociationConfig
 
 STAGES = ("train", "segment", "associate", "distill", "remove", "inpaint")
 RUN_JSON = "run.json"
+SECONDS_KEY = "seconds"  # run.json: wall seconds of each stage when it last ran
+STAGE_WORK = {  # what a stage does, said before it starts (some work silently for a minute)
+    "train": "training 3DGS", "segment": "raw 2D masks of the training views", "associate": "Key Object Management across views",
+    "distill": "object-ID distillation", "remove": "selecting and removing the object", "inpaint": "virtual views, 2D and 3D inpainting",
+}  # fmt: skip
 
 
 def check_run_folder(out: Path) -> None:
@@ -154,8 +161,12 @@ class Runner:
                 done.append((stage, "up to date"))
                 continue
             self.record.pop(stage, None)
+            if self.progress:
+                print(f"{stage}: {STAGE_WORK[stage]} ...", file=sys.stderr, flush=True)
+            t0 = time.perf_counter()
             getattr(self, f"_{stage}")()
             self.record[stage] = sigs[stage]
+            self.record.setdefault(SECONDS_KEY, {})[stage] = round(time.perf_counter() - t0, 1)
             self._save()
             done.append((stage, "ran"))
         return done

@@ -72,7 +72,8 @@ from inpaint360gs.render.api import render
 
 @dataclass(frozen=True)
 class Click:
-    """A user's selection: a pixel (column x, row y) in a named view."""
+    """A user's selection: a pixel (column x, row y) in a named view, in the coordinates of the image
+    as it lies in the scene's ``images/`` (at full size, whatever ``--resize`` the run uses)."""
 
     view: str
     x: int
@@ -92,6 +93,13 @@ class Click:
 
     def __str__(self) -> str:
         return f"{self.view}:{self.x},{self.y}"
+
+    def pixel(self, view: View) -> tuple[int, int]:
+        """(column, row) of the click in ``view``'s camera (the scene's resolution): the full-size
+        pixel's centre scaled by the camera's size over the image's."""
+        cam = view.camera
+        w, h = view.full_size or (cam.width, cam.height)
+        return min(int((self.x + 0.5) * cam.width / w), cam.width - 1), min(int((self.y + 0.5) * cam.height / h), cam.height - 1)
 
 
 @dataclass
@@ -150,9 +158,9 @@ def check_clicks(scene: Scene, clicks: list[Click], where: str | Path = "--click
             raise InputError(f"click {c}: the scene has no view {c.view!r}", scene.root) from None
         if view.is_test:
             raise InputError(f"click {c}: {view.name} is an evaluation (test_) view; click on a training view", scene.root)
-        cam = view.camera
-        if not (0 <= c.x < cam.width and 0 <= c.y < cam.height):
-            raise InputError(f"click {c} is outside the {cam.width}x{cam.height} image", where)
+        w, h = view.full_size or (view.camera.width, view.camera.height)
+        if not (0 <= c.x < w and 0 <= c.y < h):
+            raise InputError(f"click {c} is outside the {w}x{h} image (clicks are in the coordinates of images/)", where)
         views.append(view)
     return views
 
@@ -162,7 +170,8 @@ def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> 
     ids = []
     for c, view in zip(clicks, check_clicks(scene, clicks)):
         id_map, _ = field_.render_ids(view.camera, min_alpha=0.5)  # less than half covered: nothing there
-        oid = int(id_map[c.y, c.x])
+        x, y = c.pixel(view)
+        oid = int(id_map[y, x])
         if oid == 0:
             raise InputError(f"click {c} is on the background (no object there in the rendered id map)", "--click")
         ids.append(oid)

@@ -1,0 +1,82 @@
+"""Scores for captures without ground truth (inpaint360gs.metrics.capture): closed-form cases."""
+
+import numpy as np
+import pytest
+
+from inpaint360gs.metrics.capture import fit_plane, grow, object_footprint, psnr_outside, standing_share, texture_ratios
+
+
+def test_psnr_outside_ignores_the_grown_footprint():
+    rng = np.random.default_rng(0)
+    a = rng.random((60, 80, 3))
+    fp = np.zeros((60, 80), bool)
+    fp[20:30, 30:40] = True
+    b = a.copy()
+    b[grow(fp, 5)] += 0.5  # changed only within 5 px of the footprint
+    assert psnr_outside(b, a, fp, grow_px=5) == float("inf")
+    assert np.isfinite(psnr_outside(b, a, fp, grow_px=2))
+    c = a + 0.1  # everywhere: 20 dB
+    assert psnr_outside(c, a, fp, grow_px=5) == pytest.approx(20.0, abs=1e-9)
+
+
+def test_grow_is_a_disc():
+    m = np.zeros((21, 21), bool)
+    m[10, 10] = True
+    g = grow(m, 3)
+    assert g[10, 13] and g[13, 10] and not g[13, 13] and g.sum() == 29
+
+
+def test_texture_ratios_flat_and_textured_fill():
+    rng = np.random.default_rng(1)
+    img = rng.random((80, 80, 3)) * 0.5 + 0.25
+    hole = np.zeros((80, 80), bool)
+    hole[30:50, 30:50] = True
+    same = texture_ratios(img, hole, 10)
+    assert same.laplacian == pytest.approx(1.0, abs=0.1) and same.luminance == pytest.approx(1.0, abs=0.05)
+    flat = img.copy()
+    flat[hole] = img[~hole].mean(axis=0)
+    r = texture_ratios(flat, hole, 10)
+    assert r.laplacian < 0.2  # only the border pixels see the ring's texture
+    dark = img.copy()
+    dark[hole] *= 0.5
+    assert texture_ratios(dark, hole, 10).luminance == pytest.approx(0.5, abs=0.03)
+    assert texture_ratios(img, np.zeros((80, 80), bool)) is None
+
+
+def test_fit_plane_ignores_what_stands_on_it():
+    rng = np.random.default_rng(2)
+    n_true = np.array([0.1, -0.2, 1.0])
+    n_true /= np.linalg.norm(n_true)
+    e1 = np.cross(n_true, [1.0, 0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n_true, e1)
+    uv = rng.uniform(-1, 1, (400, 2))
+    pts = uv[:, :1] * e1 + uv[:, 1:] * e2 + 0.3 * n_true
+    junk = pts[:60] + rng.uniform(0.05, 0.5, (60, 1)) * n_true  # objects standing on it
+    n, d = fit_plane(np.concatenate([pts, junk]), np.array([0, 0, 1.0]))
+    assert n @ n_true > 0.9999 and d == pytest.approx(0.3, abs=1e-6)
+
+
+def _floor_and_box(rng, standing: int):
+    """A floor z=0 of 2000 Gaussians over [-1, 1]^2, an object (box 0.4 x 0.4 x 0.3 at the centre)."""
+    floor = np.c_[rng.uniform(-1, 1, (2000, 2)), np.zeros(2000)]
+    obj = np.c_[rng.uniform(-0.2, 0.2, (500, 2)), rng.uniform(0.0, 0.3, 500)]
+    left = np.c_[rng.uniform(-0.15, 0.15, (standing, 2)), rng.uniform(0.1, 0.25, standing)]
+    return floor, obj, left
+
+
+def test_standing_share_counts_what_stands_in_the_column():
+    rng = np.random.default_rng(3)
+    floor, obj, left = _floor_and_box(rng, 10)
+    fp = object_footprint(obj, np.ones(len(obj)), floor, np.ones(len(floor)), np.array([0.0, 0.0, 1.0]))
+    assert fp.height == pytest.approx(0.3, abs=0.01) and abs(fp.offset) < 1e-9
+    inside_floor = int(fp.inside(floor).sum())
+    assert 55 < inside_floor <= 80  # the box covers 0.16 / 4 of the floor: 80 expected, less its hull's trimmed corners
+    share, count = standing_share(floor, np.ones(len(floor)), fp)
+    assert share == 0.0 and count == 0
+    pts = np.concatenate([floor, left])
+    op = np.r_[np.ones(len(floor)), np.full(len(left), 0.5)]
+    share, count = standing_share(pts, op, fp)
+    assert count == 10 and share == pytest.approx(5.0 / (inside_floor + 5.0))
+    outside = left + np.array([0.6, 0.0, 0.0])  # beside the footprint: not counted
+    assert standing_share(np.concatenate([floor, outside]), np.ones(len(floor) + 10), fp) == (0.0, 0)
