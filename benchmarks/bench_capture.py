@@ -59,7 +59,8 @@ def main() -> int:
     from inpaint360gs.cli.common import set_threads
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.metrics.capture import object_footprint, psnr_outside, standing_share, texture_ratios
+    from inpaint360gs.core.support import object_footprint
+    from inpaint360gs.metrics.capture import psnr_outside, standing_share, texture_ratios
     from inpaint360gs.remove.removal import fill_masks
     from inpaint360gs.render.api import render
     from inpaint360gs.segment.frame import camera_up

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from inpaint360gs.metrics.capture import fit_plane, grow, object_footprint, psnr_outside, standing_share, texture_ratios
+from inpaint360gs.core.support import fit_plane, object_footprint
+from inpaint360gs.metrics.capture import grow, psnr_outside, standing_share, texture_ratios
 
 
 def test_psnr_outside_ignores_the_grown_footprint():

@@ -412,7 +412,8 @@ def test_removal_stage_outputs(blobs, tmp_path):
     scene, model, labels, field = blobs
     v = scene.train_views[3]
     click = Click(v.name, *centre_pixel(v.camera, BLOB_CENTRES[3]))
-    info = removal_stage(field, scene, tmp_path / "rem", clicks=[click], ids=[3], meta={"scene": "s"})
+    cfg = RemovalConfig(footprint_margin=None)  # the object's own Gaussians only (the footprint column: its own test)
+    info = removal_stage(field, scene, tmp_path / "rem", clicks=[click], ids=[3], cfg=cfg, meta={"scene": "s"})
     out = tmp_path / "rem"
     assert sorted(p.name for p in out.iterdir()) == ["masks", "point_cloud.ply", "removal.json", "removed.ply", "removed_index.npy"]
     blob = (labels == 1).numpy()  # blob 1 = object 3: exactly its Gaussians (the floor lies below its hull)
@@ -433,7 +434,7 @@ def test_removal_stage_outputs(blobs, tmp_path):
     assert rec["removed_gaussians"] == blob.sum() and rec["kept_gaussians"] == (~blob).sum()
     assert abs(rec["amcr_percent"] - np.mean(pct)) < 1e-6
     # same inputs, same bytes
-    removal_stage(field, scene, tmp_path / "again", clicks=[click], ids=[3])
+    removal_stage(field, scene, tmp_path / "again", clicks=[click], ids=[3], cfg=cfg)
     for name in ["point_cloud.ply", "removed.ply", "removed_index.npy", *(f"masks/{w.stem}.png" for w in scene.train_views)]:
         assert (out / name).read_bytes() == (tmp_path / "again" / name).read_bytes(), name
     # an existing output is kept unless overwrite
@@ -569,3 +570,44 @@ def test_support_column_is_on_by_default_and_turned_off_by_the_cli(tmp_path):
         parser.parse_args(base + ["--support-column", "0.02", "--no-support-column"])
     with pytest.raises(SystemExit):
         parser.parse_args(base + ["--support-column", "1.5"])
+
+
+def test_footprint_column_takes_what_stands_on_the_object_s_footprint_and_the_contact_region():
+    """An object (a box 0.5 x 0.5 x 0.45 on the floor z = 0) whose dark underside near the floor and
+    the floor under it the field calls background (as on real photos: tracks, the contact print),
+    faint floaters over it with no opinion, another object poking into its column, and a patch of
+    floor beside it that the field took for the object. The footprint column takes the box, its
+    underside, the floor under it and within the margin, and the floaters; the other object, the
+    mistaken floor patch and the floor beyond the margin stay; nothing is left standing there."""
+    from inpaint360gs.core.support import object_footprint
+    from inpaint360gs.metrics.capture import standing_share
+
+    rng = np.random.default_rng(5)
+    g = np.linspace(-1.0, 1.0, 81)  # floor spacing 0.025
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    under_box = (np.abs(floor[:, 0]) <= 0.25) & (np.abs(floor[:, 1]) <= 0.25)
+    beside = (floor[:, 0] > 0.45) & (floor[:, 0] < 0.6) & (np.abs(floor[:, 1]) < 0.1)  # taken for the object
+    box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
+    underside = np.c_[rng.uniform(-0.24, 0.24, (60, 2)), rng.uniform(0.01, 0.045, 60)]
+    floaters = np.c_[rng.uniform(-0.2, 0.2, (20, 2)), rng.uniform(0.55, 0.8, 20)]
+    other = ball(rng, 40, 0.05, (0.2, 0.2, 0.3))
+    parts = [(floor[~under_box & ~beside], 0), (floor[under_box], 0), (floor[beside], 1), (box, 1), (underside, 0), (floaters, -1), (other, 2)]
+    field, part = hand_field(parts)
+    up = np.array([0.0, 0.0, 1.0])
+    res = remove_objects(field, [3], RemovalConfig(hull=False), up=up)
+    removed = res.removed_mask.numpy()
+    assert removed[np.isin(part, [1, 3, 4, 5])].all()  # under the box, the box, its underside, the floaters
+    assert not removed[np.isin(part, [2, 6])].any()  # the floor patch taken for the object, the other object
+    fp = res.footprints[0]
+    assert abs(fp.height - 0.5) < 0.01 and np.allclose(fp.normal, up, atol=0.01) and abs(fp.size - 0.5) < 0.02
+    margin = RemovalConfig().footprint_margin * fp.size
+    floor_removed = removed[part == 0]
+    d = fp.distance(floor[~under_box & ~beside])
+    assert floor_removed[d <= margin - 1e-6].all() and not floor_removed[d > margin + 1e-6].any()
+    kept = res.kept
+    _, standing = standing_share(kept.means.double().numpy(), kept.opacities.double().numpy(), object_footprint(box, np.ones(len(box)), floor, np.ones(len(floor)), up))
+    assert standing == len(other)  # what stands there is the other object alone
+    # without the step the underside, the floor under the box and the floaters stay
+    off = remove_objects(field, [3], RemovalConfig(hull=False, footprint_margin=None), up=up).removed_mask.numpy()
+    assert not off[np.isin(part, [1, 4, 5])].any() and off[part == 2].any()

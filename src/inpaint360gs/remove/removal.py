@@ -102,6 +102,10 @@ class Click:
         return min(int((self.x + 0.5) * cam.width / w), cam.width - 1), min(int((self.y + 0.5) * cam.height / h), cam.height - 1)
 
 
+FOOTPRINT_TOP = 2.0  # the footprint column reaches this x the object's height: faint Gaussians floating just over an
+# object are part of its appearance (3DGS explains view-dependent colour with them), not the scene's
+
+
 @dataclass
 class RemovalConfig:
     """Settings of the removal (supp. B "Object Removal"; defaults from the authors' public code)."""
@@ -134,6 +138,20 @@ class RemovalConfig:
     # On by default: without it the stool's leg ends stay as needles in the filled region (README,
     # "Measured numbers"), and on the other scenes it takes a handful of Gaussians at most.
     support_column: float | None = 0.01
+    # The footprint column (step 4): every Gaussian over the object's outline on the support plane
+    # fitted around it, grown by this x the footprint's size (sqrt of its area), from
+    # ``footprint_depth`` x the object's height below the plane up to its top, goes with the object,
+    # whatever the field calls it (other objects stay). Parts near the support that the masks and
+    # the field lose (tracks, an underside, the dark contact region) and the support under the
+    # object, which no photo saw and which holds the object's print, are left to the fill. The
+    # margin stands for the paper's dilated inpainting mask (supp. B: 10 px on ~1000-px images,
+    # about 5% of an object a fifth of the image wide): a contact shadow on the support is filled
+    # too. None = off (the authors' code).
+    footprint_margin: float | None = 0.05
+    footprint_depth: float = 0.1
+    # Selected Gaussians lying on the support (within this x the object's height of the plane) outside
+    # the grown footprint are the support, taken for the object where it touches it: they stay.
+    support_band: float = 0.05
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
 
 
@@ -144,6 +162,7 @@ class Removal:
     removed_mask: torch.Tensor  # (N,) bool over the input model
     objects: list[int]  # the selected object ids
     counts: dict = field(default_factory=dict)  # per object: by probability, by hull
+    footprints: list = field(default_factory=list)  # per object: its core.support.Footprint (step 4), when found
 
 
 def check_clicks(scene: Scene, clicks: list[Click], where: str | Path = "--click") -> list[View]:
@@ -342,6 +361,7 @@ def remove_objects(
         protected |= floor & (probs[:, field_.object_ids.index(0)] > 0.5).numpy()
     remove = np.zeros(len(means), dtype=bool)
     counts = {}
+    bodies = []  # per object: what steps 1-2 take for it
     for oid, c in col.items():
         sel = (probs[:, c] > cfg.threshold).numpy()
         idx = np.flatnonzero(sel)
@@ -351,6 +371,7 @@ def remove_objects(
             pts = _inlier_points(means[sel], cfg.outlier_k, cfg.outlier_std)
             hull = inside_hull(pts, means) & ~sel & ~protected
         remove |= sel | hull
+        bodies.append(sel | hull)
         counts[str(oid)] = {"by_probability": int(sel.sum()), "by_hull": int(hull.sum())}
     if cfg.support_column is not None and heights is not None and up is not None and radius > 0 and 0 in field_.object_ids and remove.any():
         background = (probs[:, field_.object_ids.index(0)] > 0.5).numpy()
@@ -363,8 +384,41 @@ def remove_objects(
         counts["below"] = int(below.sum())
     if not remove.any():
         raise InputError(f"no Gaussian has probability > {cfg.threshold} for object(s) {object_ids}: nothing to remove")
+    footprints = []
+    if cfg.footprint_margin is not None:
+        opac = field_.gaussians.opacities.detach().cpu().double().numpy()
+        remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts)
     mask = torch.from_numpy(remove)
-    return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts)
+    return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts, footprints)
+
+
+def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarray, bodies: list[np.ndarray], keep: np.ndarray,
+                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict) -> tuple[np.ndarray, list]:  # fmt: skip
+    """Step 4 (``RemovalConfig.footprint_margin``): ``remove`` plus every Gaussian in each object's
+    footprint column (not those in ``keep``: other objects), minus the support Gaussians the
+    selection took outside it. ``bodies``: per object, what steps 1-2 took; ``up`` a hint of the
+    support's normal (None: the cameras' up is not known and the column is skipped). Returns the
+    new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
+    from inpaint360gs.core.support import object_footprint
+
+    remove = remove.copy()
+    found = []
+    if up is None:  # no support plane (removal.json's "support" says why)
+        return remove, found
+    for i, body in enumerate(bodies):
+        try:
+            fp = object_footprint(means[body], opacities[body], means[~remove], opacities[~remove], up)
+        except ValueError as e:
+            counts.setdefault("footprint", []).append(f"skipped: {e}")
+            continue
+        h = fp.heights(means)
+        d = fp.distance(means)
+        column = (d <= cfg.footprint_margin * fp.size) & (h > -cfg.footprint_depth * fp.height) & (h <= FOOTPRINT_TOP * fp.height) & ~keep
+        support = remove & body & (d > cfg.footprint_margin * fp.size) & (np.abs(h) <= cfg.support_band * fp.height)
+        counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size})
+        remove = (remove | column) & ~support
+        found.append(fp)
+    return remove, found
 
 
 @torch.no_grad()
@@ -400,7 +454,7 @@ def removal_stage(
     clicks = list(clicks or [])
     targets = resolve_clicks(field_, scene, clicks) + list(ids or [])
     targets = list(dict.fromkeys(targets))  # keep order, drop repeats
-    needs_plane = cfg.protect_support is not None or cfg.support_column is not None
+    needs_plane = cfg.protect_support is not None or cfg.support_column is not None or cfg.footprint_margin is not None
     heights, radius, support_note, up = support_heights(field_, scene) if needs_plane else (None, 0.0, "support guard off", None)
     res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up)
     views = scene.train_views
@@ -417,6 +471,7 @@ def removal_stage(
         "mask_rule": f"a pixel is to be filled when removed Gaussians gave at least {cfg.mask_share:g} of its colour in the original model",
         "config": asdict(cfg),
         "support": support_note,
+        "footprints": [fp.to_json() for fp in res.footprints],
         "seconds": round(time.perf_counter() - t0, 2),
     }
     with atomic_dir(out, overwrite=overwrite) as tmp:
