@@ -419,7 +419,8 @@ def conditioned_case():
     cams = floor_cameras([0, 25], w=48, h=36, f=36.0)
     masks = [footprint(floor, hole, c, 0.5) for c in cams]
     depth = make_inpainter("plane").depth
-    runs = {cond: inpaint_views(edited, cams, masks, PerViewFill(), depth, condition=cond) for cond in (True, False)}
+    # blend=False: what a view takes from earlier ones, as it was (the blending has its own test)
+    runs = {cond: inpaint_views(edited, cams, masks, PerViewFill(), depth, condition=cond, blend=False) for cond in (True, False)}
     return cams, masks, runs
 
 
@@ -446,3 +447,80 @@ def test_conditioning_lowers_the_reprojection_error(conditioned_case):
     with_cond, without = reprojection_error(runs[True]), reprojection_error(runs[False])
     assert without > 0.3  # two different flat colours
     assert with_cond < 0.1 * without, (with_cond, without)
+
+
+def test_new_gaussians_are_surfels_lying_in_the_surface():
+    """Each new Gaussian is flat in the plane it continues: its thin axis along the plane's normal,
+    a tenth of its radius in the plane."""
+    from inpaint360gs.core.gaussians import quat_to_rotmat
+
+    view, _ = plane_view()
+    g = depth_guided_init([view], sh_degree=0)
+    rot = quat_to_rotmat(g.quats.double())
+    thin = rot[:, :, 2].numpy()  # the local z axis: the smallest scale
+    s = g.log_scales.exp().double().numpy()
+    assert np.allclose(s[:, 2], 0.1 * s[:, 0]) and np.allclose(s[:, 0], s[:, 1])
+    interior = np.abs(np.abs(thin @ PLANE_N) - 1.0) < 1e-3
+    assert interior.mean() > 0.98  # a plane's neighbourhoods are planar everywhere
+
+
+def test_init_takes_each_surface_point_from_the_view_that_filled_it():
+    """Pixels a view took over from earlier views (``from_condition``) add no Gaussians: the first
+    view that inpainted a point initialises it (paper supp. B: the first inpainted view)."""
+    view, _ = plane_view()
+    taken = InpaintedView(view.camera, view.color, view.depth, view.mask, view.valid, view.mask.copy())
+    g1 = depth_guided_init([view], voxel_pixels=1e-3, sh_degree=0)
+    g2 = depth_guided_init([view, taken], voxel_pixels=1e-3, sh_degree=0)
+    assert torch.equal(g1.means, g2.means)
+
+
+def test_plane_depth_and_the_support_camera():
+    """``plane_depth`` against the float64 ray-plane intersection; the support view looks straight
+    down the plane's normal at the footprint's centre, the footprint filling half the short side."""
+    from inpaint360gs.core.support import Footprint
+    from inpaint360gs.views.unseen import backproject, project
+    from inpaint360gs.views.virtual import plane_depth as virtual_plane_depth
+    from inpaint360gs.views.virtual import support_camera
+
+    cam = oblique_camera()
+    z_ref, _ = plane_depth(cam)
+    assert np.allclose(virtual_plane_depth(cam, PLANE_N, PLANE_C), z_ref, rtol=1e-6)  # the camera is float32
+    square = np.array([[-0.2, -0.2], [0.2, -0.2], [0.2, 0.2], [-0.2, 0.2]]) + [0.3, -0.1]
+    fp = Footprint(PLANE_N, PLANE_C, square, 0.5)
+    top = support_camera(fp, cam, fill=0.5)
+    assert np.allclose(top.R.double().numpy()[2], -PLANE_N, atol=1e-6)  # looking straight down
+    u, v, _ = project(top, fp.to_world(square))
+    assert np.allclose([u.mean(), v.mean()], [top.width / 2, top.height / 2], atol=1e-3)
+    height = float(top.center.double().numpy() @ PLANE_N - PLANE_C)
+    assert height * 0.5 * min(top.width, top.height) == pytest.approx(fp.diameter * max(cam.fx, cam.fy), rel=1e-5)  # the diameter at the larger focal length spans half the short side
+    assert fp.diameter == pytest.approx(0.4 * math.sqrt(2))
+    z = virtual_plane_depth(top, PLANE_N, PLANE_C)
+    assert np.ptp(z) < 1e-9 * z.mean()  # an image plane parallel to the support: one depth
+    rows, cols = np.array([3, 10]), np.array([4, 20])
+    assert np.allclose(backproject(top, z[rows, cols], rows, cols) @ PLANE_N, PLANE_C)
+
+
+def test_blending_takes_the_views_brightness_and_keeps_the_taken_texture():
+    """Pixels taken from an earlier view whose colours are 0.1 darker than this view sees the surface
+    (a view-dependent colour): after blending the offset is gone at the border and inside (the
+    membrane interpolation of a constant is that constant), and the texture is the taken one."""
+    from inpaint360gs.inpaint.conditioned import blend_into_view
+
+    rng = np.random.default_rng(0)
+    view = (0.4 + 0.2 * rng.random((40, 50, 3))).astype(np.float32)
+    taken = np.zeros((40, 50), bool)
+    taken[10:30, 12:40] = True
+    img = view.copy()
+    img[taken] -= 0.1
+    out = blend_into_view(img, taken, taken)
+    err = out[taken] - view[taken]
+    assert abs(err.mean()) < 0.005 and np.abs(err).max() < 0.05  # the border pixels' own texture differences stay, smoothed
+    corr = (out - img)[taken]
+    assert corr.std() < 0.2 * view[taken].std()  # a smooth shift: the taken texture is kept
+    assert np.array_equal(out[~taken], img[~taken])
+    # a smooth mismatch (brighter on the left border than the right) is corrected smoothly, the texture kept
+    ramp = np.linspace(0.1, -0.1, 50)[None, :, None].astype(np.float32)
+    img = view.copy()
+    img[taken] = (view + ramp)[taken]
+    out = blend_into_view(img, taken, taken)
+    assert np.abs(out[taken] - view[taken]).mean() < 0.01

@@ -20,11 +20,13 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.inpaint.inpainters import TeleaInpainter
 from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import backproject, normalised_depth
 
@@ -70,13 +72,19 @@ def inpaint_views(
     condition: bool = True,
     min_alpha: float = 0.5,
     backend: str = "auto",
+    fills: dict[int, tuple[Callable, Callable]] | None = None,
+    blend: bool = True,
 ) -> list[InpaintedView]:
     """Inpaint the region ``masks[i]`` of ``edited``'s render at ``cameras[i]``, in order (see the
     module docstring), with the 2D inpainters ``fill_rgb(image, mask)`` and ``fill_depth(depth, mask)``
-    (:mod:`.inpainters`)."""
+    (:mod:`.inpainters`); ``fills`` gives view ``i`` its own pair instead (either may be None: the
+    default). ``blend``: what a view takes from earlier views is fitted to its own surroundings
+    (:func:`blend_into_view`)."""
     cloud: Gaussians | None = None
     out = []
-    for cam, mask in zip(cameras, masks):
+    fills = fills or {}
+    for i, (cam, mask) in enumerate(zip(cameras, masks)):
+        view_rgb, view_depth = fills.get(i, (None, None))
         o = render(edited, cam, backend=backend)
         color = o.color.clamp(0, 1).numpy().astype(np.float32)
         depth = normalised_depth(o).numpy().astype(np.float32)
@@ -93,19 +101,66 @@ def inpaint_views(
             # the surface's colour: Σ cαT over a black background divided by alpha, like the depth
             color[cond] = (c.color.numpy()[cond] / a[cond][:, None]).clip(0, 1)
             depth[cond] = normalised_depth(c).numpy()[cond]
+            if blend and cond.any():
+                color = blend_into_view(color, cond, mask | ~valid)
             hole = mask & ~cov
-        # outside the mask, pixels without a surface (holes left by occluders taken out) carry no depth
-        # the inpainter may trust; they are filled too but marked invalid for the 3D stage
+        # outside the mask, pixels without a surface (holes left by occluders taken out, background the
+        # scene never reconstructed) carry no target the 3D stage uses: they are marked invalid and
+        # filled first by a cheap diffusion (OpenCV Telea; their depth too), so that the hole's
+        # inpainters find no black pixels to copy; then the hole is filled
         free = ~valid
-        if hole.any() or free.any():
-            fill = hole | free
-            color = fill_rgb(color, fill)
-            depth = fill_depth(np.where(fill, 0.0, depth).astype(np.float32), fill)
+        if free.any():
+            unknown = free | mask  # what the conditioning brought in is not a source here, so the free pixels do not depend on it
+            color[free] = TeleaInpainter().rgb(color, unknown)[free]
+            depth[free] = TeleaInpainter().depth(np.where(unknown, 0.0, depth).astype(np.float32), unknown)[free]
+        if hole.any():
+            color = (view_rgb or fill_rgb)(color, hole)
+            depth = (view_depth or fill_depth)(np.where(hole, 0.0, depth).astype(np.float32), hole)
         if hole.any():
             rows, cols = np.nonzero(hole)
             new = pixel_gaussians(cam, color, depth, rows, cols)
             cloud = _cat(cloud, new)
         out.append(InpaintedView(cam, color, depth, mask, valid, cond))
+    return out
+
+
+def _smooth(img: np.ndarray, where: np.ndarray, sigma: float) -> np.ndarray:
+    """Gaussian blur of ``img`` over the pixels ``where`` only (normalised convolution)."""
+    w = where.astype(np.float64)
+    num = cv2.GaussianBlur(img * w[..., None], (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    den = cv2.GaussianBlur(w, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    return num / np.maximum(den, 1e-12)[..., None]
+
+
+def blend_into_view(color: np.ndarray, taken: np.ndarray, unknown: np.ndarray, sigma: float = 2.0) -> np.ndarray:
+    """``color`` with the pixels ``taken`` from earlier views shifted by the membrane interpolation
+    of their mismatch with the view's own pixels along their border (Poisson image blending,
+    Perez et al. 2003): the texture and structure stay the earlier views' (consistency), the
+    brightness and tint near the border become this view's (a surface looks lighter or darker
+    from another direction; 3DGS's colour is view-dependent). ``unknown`` (a superset of
+    ``taken``): pixels whose own colour is not yet known (the rest of the hole, no surface)."""
+    from inpaint360gs.inpaint.inpainters import harmonic_fill
+
+    ys, xs = np.nonzero(unknown)
+    h, w = taken.shape
+    y0, y1, x0, x1 = max(ys.min() - 2, 0), min(ys.max() + 3, h), max(xs.min() - 2, 0), min(xs.max() + 3, w)
+    t, u = taken[y0:y1, x0:x1], unknown[y0:y1, x0:x1]
+    crop = color[y0:y1, x0:x1].astype(np.float64)
+    # the nearest taken pixel of every pixel (OpenCV labels each zero of the input with its own index)
+    _, label = cv2.distanceTransformWithLabels((~t).astype(np.uint8), cv2.DIST_L2, 5, labelType=cv2.DIST_LABEL_PIXEL)
+    ty, tx = np.nonzero(t)
+    lut = np.zeros((label.max() + 1, 2), dtype=np.int64)
+    lut[label[ty, tx]] = np.stack([ty, tx], 1)
+    near = lut[label]
+    # compared through a Gaussian of ``sigma`` px taken within each side (normalised convolution): the
+    # border pixels' texture differs pixel by pixel, their brightness does not
+    own, mine = _smooth(crop, ~u, sigma), _smooth(crop, t, sigma)
+    diff = own - mine[near[..., 0], near[..., 1]]  # known pixels: own colour minus the nearest taken one
+    if (u.all()) or not (~u).any():
+        return color
+    corr = harmonic_fill(np.where(u[..., None], 0.0, diff), u)
+    out = color.copy()
+    out[y0:y1, x0:x1][t] = np.clip(crop[t] + corr[t], 0.0, 1.0).astype(color.dtype)
     return out
 
 

@@ -458,6 +458,40 @@ class PatchMatchHarmonicInpainter(PatchMatchInpainter):
 
 
 @dataclass
+class ShiftMapInpainter(Inpainter):
+    """Shift-map completion from the statistics of patch offsets (He and Sun 2012), OpenCV's
+    ``xphoto.inpaint(..., INPAINT_SHIFTMAP)``, on 8-bit CIELab: the fill is made of copies of the
+    known image shifted by its few dominant self-similarity offsets, so stationary textures and
+    straight structures (stripes, a border) continue across the hole. The offsets are gathered
+    from the hole's bounding box grown by ``context`` x its size on every side (0: the whole image):
+    the statistics of the surface around the hole, not of the rest of the picture. Deterministic;
+    colour only."""
+
+    name: ClassVar[str] = "shiftmap"
+    supports_depth: ClassVar[bool] = False
+    context: float = 0.5
+
+    def _fill_rgb(self, img, mask):
+        if self.context > 0:
+            ys, xs = np.nonzero(mask)
+            gy, gx = self.context * (np.ptp(ys) + 1), self.context * (np.ptp(xs) + 1)
+            y0, y1 = max(0, int(ys.min() - gy)), min(mask.shape[0], int(ys.max() + gy) + 1)
+            x0, x1 = max(0, int(xs.min() - gx)), min(mask.shape[1], int(xs.max() + gx) + 1)
+            out = img.copy()
+            out[y0:y1, x0:x1] = self._shiftmap(img[y0:y1, x0:x1], mask[y0:y1, x0:x1])
+            return out
+        return self._shiftmap(img, mask)
+
+    @staticmethod
+    def _shiftmap(img, mask):
+        rgb8 = np.clip(np.round(img * 255.0), 0, 255).astype(np.uint8)
+        lab = cv2.cvtColor(rgb8, cv2.COLOR_RGB2Lab)
+        out = np.zeros_like(lab)
+        cv2.xphoto.inpaint(lab, (~mask).astype(np.uint8) * 255, out, cv2.xphoto.INPAINT_SHIFTMAP)  # its mask: 255 = known
+        return cv2.cvtColor(out, cv2.COLOR_Lab2RGB).astype(np.float64) / 255.0
+
+
+@dataclass
 class LamaInpainter(Inpainter):
     """LaMa from an ONNX checkpoint (``lama_onnx`` or ``$INPAINT360GS_LAMA_ONNX``), loaded on creation."""
 
@@ -485,7 +519,7 @@ class LamaInpainter(Inpainter):
 
 INPAINTERS: dict[str, type[Inpainter]] = {
     cls.name: cls
-    for cls in (TeleaInpainter, NSInpainter, HarmonicInpainter, PlaneInpainter, PatchMatchInpainter, PatchMatchHarmonicInpainter, LamaInpainter)
+    for cls in (TeleaInpainter, NSInpainter, HarmonicInpainter, PlaneInpainter, PatchMatchInpainter, PatchMatchHarmonicInpainter, ShiftMapInpainter, LamaInpainter)
 }
 RGB_METHODS = tuple(n for n, c in INPAINTERS.items() if c.supports_rgb)
 DEPTH_METHODS = tuple(n for n, c in INPAINTERS.items() if c.supports_depth)

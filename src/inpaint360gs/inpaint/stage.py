@@ -39,7 +39,7 @@ from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import TrainingVisibility, UnseenConfig, clean_mask, footprint, occluders, unseen_mask
-from inpaint360gs.views.virtual import VirtualViewsConfig, cameras_to_json, choose_trajectory
+from inpaint360gs.views.virtual import VirtualViewsConfig, cameras_to_json, choose_trajectory, plane_depth, support_camera
 
 
 @dataclass
@@ -55,6 +55,16 @@ class InpaintConfig:
     lama_onnx: str | None = None  # LaMa checkpoint (ONNX) when an inpainter is "lama"
     occluders: bool = True  # take occluders out for inpainting, put them back after
     occluder_min_pixels: int = 10
+    # Start the recursion from a view straight above each removed object's footprint (the removal
+    # stage's support plane), filled with ``support_inpainter``: the support is seen rectified there
+    # (views.virtual.support_camera), so textures and straight borders continue across the hole,
+    # and every later view inherits that fill through the conditioning. False: the trajectory alone.
+    support_view: bool = True
+    support_inpainter: str = "shiftmap"
+    # With the removal's footprints, the scene's Gaussians that the 3D inpainting may adjust are those
+    # within this x the footprint's size around it (footprint_rows); without, those near the removed
+    # Gaussians (refine.RefineConfig.region_margin).
+    footprint_margin: float = 0.25
     virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)
     unseen: UnseenConfig = field(default_factory=UnseenConfig)
     refine: RefineConfig = field(default_factory=RefineConfig)
@@ -82,6 +92,81 @@ def _per_gaussian_ids(field_: IdentityField) -> np.ndarray:
     return np.asarray(field_.object_ids)[probs.argmax(dim=1).numpy()]
 
 
+def _support_views(footprints: list, like, edited: Gaussians, backend: str, min_agree: float = 0.5) -> list:
+    """A camera straight above each footprint whose support it sees: where
+    the edited scene renders a surface around the footprint, at least ``min_agree`` of it must lie
+    on the support plane (within 2% of the depth); a view whose support is hidden (the object stood
+    under a table top) is left out."""
+    out = []
+    for i, fp in enumerate(footprints):
+        cam = support_camera(fp, like, name=f"support_{i:02d}")
+        z = plane_depth(cam, fp.normal, fp.offset)
+        with torch.no_grad():
+            o = render(edited, cam, backend=backend)
+        a = o.alpha.numpy()
+        d = (o.depth / o.alpha.clamp_min(1e-6)).numpy()
+        ring = (a >= 0.5) & np.isfinite(z)
+        if ring.any() and float(np.mean(np.abs(d[ring] - z[ring]) <= 0.02 * z[ring])) >= min_agree:
+            out.append(cam)
+    return out
+
+
+def in_columns(points: np.ndarray, footprints: list, margin: float) -> np.ndarray:
+    """Which ``points`` (N, 3) lie in any footprint's column (from one object height below the
+    support to twice above it) grown by ``margin`` x its size."""
+    out = np.zeros(len(points), dtype=bool)
+    for fp in footprints:
+        h = fp.heights(points)
+        out |= (fp.distance(points) <= margin * fp.size) & (h > -fp.height) & (h < 2.0 * fp.height)
+    return out
+
+
+def support_depth(camera, footprints: list, margin: float) -> np.ndarray:
+    """(H, W) camera z of the support plane where a pixel's ray meets it inside a footprint grown by
+    ``margin`` x its size (looking down into the space the removal emptied; the nearest such plane),
+    inf elsewhere."""
+    from inpaint360gs.views.unseen import backproject
+
+    out = np.full((camera.height, camera.width), np.inf)
+    for fp in footprints:
+        z = plane_depth(camera, fp.normal, fp.offset)
+        rows, cols = np.nonzero(np.isfinite(z))
+        if len(rows):
+            inside = fp.distance(backproject(camera, z[rows, cols], rows, cols)) <= margin * fp.size
+            r, c = rows[inside], cols[inside]
+            out[r, c] = np.minimum(out[r, c], z[r, c])
+    return out
+
+
+def on_supports(points: np.ndarray, footprints: list, margin: float, tol: float = 0.1) -> np.ndarray:
+    """Which ``points`` lie on a footprint's support (within ``tol`` x the object's height of the
+    plane) inside the footprint grown by ``margin`` x its size."""
+    out = np.zeros(len(points), dtype=bool)
+    for fp in footprints:
+        out |= (fp.distance(points) <= margin * fp.size) & (np.abs(fp.heights(points)) <= tol * fp.height)
+    return out
+
+
+def footprint_rows(model: Gaussians, footprints: list, margin: float) -> torch.Tensor:
+    """Gaussians of ``model`` in the footprints' grown columns (:func:`in_columns`): the support
+    around the hole, what the 3D inpainting may adjust besides the new Gaussians (the seams of
+    paper Sec. 3.5); the rest of the scene, which the photos explain, stays as it was."""
+    return torch.from_numpy(in_columns(model.means.detach().cpu().double().numpy(), footprints, margin))
+
+
+def _plane_fill(z: np.ndarray, fallback):
+    """A depth inpainter that puts the support plane's depth ``z`` into the hole (``fallback`` where
+    the plane is out of sight)."""
+
+    def fill(depth, mask):
+        ok = mask & np.isfinite(z)
+        out = depth.copy()
+        out[ok] = z[ok]
+        return fallback(out, mask & ~ok) if (mask & ~ok).any() else out
+
+    return fill
+
+
 def inpaint_scene(
     field_: IdentityField,
     removed_mask: torch.Tensor,
@@ -91,9 +176,11 @@ def inpaint_scene(
     *,
     progress: bool = False,
     removal: str | Path | None = None,
+    footprints: list | None = None,
 ) -> tuple[Gaussians, dict, list]:
     """Run steps 1–6 (see the module docstring); returns (final model, record, inpainted views).
-    ``removal`` (the removal stage's folder) is what errors about the selection name."""
+    ``removal`` (the removal stage's folder) is what errors about the selection name; ``footprints``
+    (:class:`inpaint360gs.core.support.Footprint`, from the removal) place the support views."""
     cfg = cfg or InpaintConfig()
     _check_config(cfg)
     t = {}
@@ -115,8 +202,14 @@ def inpaint_scene(
 
     tried: list[tuple[list, list]] = []  # (candidate cameras, their fill shares)
 
+    def fill_mask(model, removed, edited_model, c):
+        """The view's unseen mask; with footprints, only where its rays meet the support inside them
+        (what the removal emptied is the support's to fill; a surface revealed elsewhere stays)."""
+        m = unseen_mask(model, removed, edited_model, c, visibility, cfg.unseen, cfg.backend)[0]
+        return m & np.isfinite(support_depth(c, footprints, cfg.footprint_margin)) if footprints else m
+
     def shares(cams):
-        s = [unseen_mask(original, removed_mask, edited, c, visibility, cfg.unseen, cfg.backend)[0].mean() for c in cams]
+        s = [fill_mask(original, removed_mask, edited, c).mean() for c in cams]
         tried.append((cams, s))
         return s
 
@@ -129,6 +222,9 @@ def inpaint_scene(
             raise _nothing_to_fill(original, removed_mask, [c for cams, _ in tried for c in cams], cfg, "virtual", removal) from None
     else:
         cameras, trajectory = train_cams, {"training_views": [v.name for v in scene.train_views]}
+    supports = _support_views(footprints, train_cams[0], edited, cfg.backend) if (cfg.support_view and footprints and cfg.views == "virtual") else []
+    cameras = supports + list(cameras)
+    trajectory["support_views"] = len(supports)
     t["cameras_s"] = time.perf_counter() - t0
 
     # 2. occluders out
@@ -144,7 +240,7 @@ def inpaint_scene(
     # 3. masks of the region to fill
     t0 = time.perf_counter()
     if cfg.masks == "unseen":
-        masks = [unseen_mask(base, base_removed, edited, c, visibility, cfg.unseen, cfg.backend)[0] for c in cameras]
+        masks = [fill_mask(base, base_removed, edited, c) for c in cameras]
     else:  # "footprint": the whole rendered footprint, dilated (what per-view 2D pipelines inpaint)
         masks = [clean_mask(footprint(base, base_removed, c, cfg.unseen.footprint_share, cfg.backend), cfg.unseen.min_component, cfg.unseen.dilate) for c in cameras]
     if not any(m.any() for m in masks):
@@ -153,7 +249,12 @@ def inpaint_scene(
 
     # 4. 2D inpainting
     t0 = time.perf_counter()
-    views = inpaint_views(edited, cameras, masks, rgb.rgb, dep.depth, condition=cfg.condition, backend=cfg.backend)
+    fills = {}
+    if footprints:  # what the removal emptied is filled on its support: the plane's depth where a ray meets it there
+        sup = make_inpainter(cfg.support_inpainter, **opts) if supports else None
+        for i, c in enumerate(cameras):
+            fills[i] = (sup.rgb if i < len(supports) else None, _plane_fill(support_depth(c, footprints, cfg.footprint_margin), dep.depth))
+    views = inpaint_views(edited, cameras, masks, rgb.rgb, dep.depth, condition=cfg.condition, backend=cfg.backend, fills=fills)
     consistency = reprojection_error(views)
     t["inpaint_2d_s"] = time.perf_counter() - t0
 
@@ -161,6 +262,8 @@ def inpaint_scene(
     t0 = time.perf_counter()
     if cfg.init == "depth":
         new = depth_guided_init(views, sh_degree=edited.sh_degree)
+        if footprints:  # the fill of what the removal emptied lies on its support
+            new = new.subset(torch.from_numpy(on_supports(new.means.detach().double().numpy(), footprints, cfg.footprint_margin)))
     elif cfg.init == "naive":
         box = original.means[removed_mask].detach().numpy()
         new = naive_init(views, box.min(0), box.max(0), max(1, len(depth_guided_init(views, sh_degree=0))), seed=cfg.refine.seed, sh_degree=edited.sh_degree)
@@ -171,8 +274,9 @@ def inpaint_scene(
     # 6. 3D inpainting, occluders back
     t0 = time.perf_counter()
     bar = tqdm(total=cfg.refine.resolved().iterations, desc="3D inpainting", disable=not progress, dynamic_ncols=True)
-    region = original.means[removed_mask].detach().double().numpy()
-    refined, log = refine(edited, new, views, cfg.refine, region=region, extent=scene.extent, progress=bar.update)
+    removed_points = original.means[removed_mask].detach().double().numpy()
+    active = footprint_rows(edited, footprints, cfg.footprint_margin) if footprints else None
+    refined, log = refine(edited, new, views, cfg.refine, region=removed_points, extent=scene.extent, progress=bar.update, active=active)
     bar.close()
     occ_g = original.subset(occ_mask)
     final = Gaussians(**{k: torch.cat([getattr(refined, k), getattr(occ_g, k).detach()], 0) for k in ("means", "log_scales", "quats", "opacity_logits", "sh0", "shN")})
@@ -288,6 +392,17 @@ def read_removal(removed_dir: str | Path, n: int) -> tuple[torch.Tensor, list[in
     return mask, [int(i) for i in info.get("objects", [])]
 
 
+def read_footprints(removed_dir: str | Path) -> list:
+    """The footprints the removal recorded (``removal.json``: ``footprints``; none from an older removal)."""
+    from inpaint360gs.core.support import Footprint
+
+    try:
+        info = json.loads((Path(removed_dir) / "removal.json").read_text())
+        return [Footprint.from_json(d) for d in info.get("footprints", [])]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise InputError(f"unreadable footprints in the removal record ({type(e).__name__})", Path(removed_dir) / "removal.json") from None
+
+
 def inpaint_from_removal(field_: IdentityField, removed_dir: str | Path, scene: Scene, out: str | Path, cfg: InpaintConfig | None = None, *, overwrite: bool = False, progress: bool = False) -> dict:
     """The stage as ``inpaint360gs inpaint`` runs it: read the removal, inpaint, write ``out``."""
     cfg = cfg or InpaintConfig()
@@ -296,7 +411,7 @@ def inpaint_from_removal(field_: IdentityField, removed_dir: str | Path, scene: 
     if out.is_dir() and any(out.iterdir()) and not overwrite:  # before any work (atomic_dir checks again at the end)
         raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", out)
     mask, ids = read_removal(removed_dir, len(field_.gaussians))
-    final, record, views = inpaint_scene(field_, mask, ids, scene, cfg, progress=progress, removal=removed_dir)
+    final, record, views = inpaint_scene(field_, mask, ids, scene, cfg, progress=progress, removal=removed_dir, footprints=read_footprints(removed_dir))
     record["seconds"]["total_s"] = round(time.perf_counter() - t0, 2)
     write_inpainting(final, field_.gaussians, record, views, scene, out, backend=cfg.backend, overwrite=overwrite)
     return record

@@ -114,6 +114,40 @@ def choose_trajectory(
     return best[1], info
 
 
+def support_camera(footprint, like: Camera, fill: float = 0.5, name: str = "support") -> Camera:
+    """A camera straight above an object's footprint (:class:`inpaint360gs.core.support.Footprint`),
+    looking down the support plane's normal at the footprint's centre, with ``like``'s intrinsics,
+    at the height where the footprint's diameter spans ``fill`` of the image's shorter side; the
+    image's up is ``like``'s viewing direction laid onto the plane.
+
+    An image plane parallel to a plane maps it by a similarity: in this view the support is seen
+    rectified, its textures stationary and its straight edges straight, the case where an exemplar
+    fill continues them (the first view of the recursive inpainting, :mod:`inpaint360gs.inpaint.stage`)."""
+    n = np.asarray(footprint.normal, dtype=np.float64)
+    centre = footprint.centre
+    f = max(like.fx, like.fy)
+    height = footprint.diameter * f / (fill * min(like.width, like.height))
+    fwd = like.R.detach().cpu().double().numpy()[2]
+    fwd = fwd - (fwd @ n) * n
+    if np.linalg.norm(fwd) < 1e-6:  # ``like`` looks straight down: any direction in the plane
+        fwd = np.cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
+    fwd /= np.linalg.norm(fwd)
+    return Camera.look_at(centre + height * n, centre, fwd, like.fx, like.fy, like.width / 2.0, like.height / 2.0, like.width, like.height, name=name)
+
+
+def plane_depth(camera: Camera, normal: np.ndarray, offset: float) -> np.ndarray:
+    """(H, W) camera z of the plane ``normal . x = offset`` along each pixel centre's ray (inf where
+    the ray misses it or meets it behind the camera)."""
+    R = camera.R.detach().cpu().double().numpy()
+    c = camera.center.detach().cpu().double().numpy()
+    cols, rows = np.meshgrid(np.arange(camera.width) + 0.5, np.arange(camera.height) + 0.5)
+    rays = np.stack([(cols - camera.cx) / camera.fx, (rows - camera.cy) / camera.fy, np.ones_like(cols)], axis=-1) @ R  # world, z = 1 in camera
+    denom = rays @ np.asarray(normal, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = (offset - float(np.asarray(normal) @ c)) / denom
+    return np.where(np.isfinite(z) & (z > 0), z, np.inf)
+
+
 def cameras_to_json(cameras: Sequence[Camera]) -> list[dict]:
     """COLMAP-compatible records: PINHOLE intrinsics, world-to-camera quaternion (w, x, y, z) and translation."""
     from scipy.spatial.transform import Rotation
