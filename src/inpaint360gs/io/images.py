@@ -16,16 +16,21 @@ import numpy as np
 import torch
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import path_problem
 from inpaint360gs.core.layout import MASK_SUFFIXES
 from inpaint360gs.io.atomic import atomic_path
 
+# OpenCV's decoders print a "[ WARN:...]" line of their own on a corrupt file (a truncated PNG),
+# before the one-line error the readers below raise naming the file: keep only errors.
+cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
 
 
 def read_image(path: str | Path) -> np.ndarray:
     """RGB image as (H, W, 3) uint8 or uint16, as stored; grey is replicated, alpha is dropped."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError("image file not found", path)
+    problem = path_problem(path)
+    if problem is not None:
+        raise InputError(problem.replace("file not found", "image file not found"), path)
     data = path.read_bytes()
     if not data:
         raise InputError("empty file (0 bytes), not an image", path)
@@ -52,8 +57,9 @@ def read_image(path: str | Path) -> np.ndarray:
 def read_mask(path: str | Path) -> np.ndarray:
     """Single-channel mask as stored, (H, W) uint8/uint16 (first channel of a colour file)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError("mask file not found", path)
+    problem = path_problem(path)
+    if problem is not None:
+        raise InputError(problem.replace("file not found", "mask file not found"), path)
     m = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if m is None:
         raise InputError("cannot decode mask (corrupt or unsupported format)", path)
@@ -92,6 +98,9 @@ def image_size(path: str | Path) -> tuple[int, int]:
     from PIL import Image, UnidentifiedImageError
 
     path = Path(path)
+    problem = path_problem(path)
+    if problem is not None:
+        raise InputError(problem, path)
     try:
         with Image.open(path) as im:
             return int(im.width), int(im.height)
