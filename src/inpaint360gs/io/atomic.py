@@ -135,6 +135,19 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
         _remove_own_temporaries(target.parent, prefix, ".tmp")
 
 
+def remove_tree(target: str | Path) -> None:
+    """Delete the folder ``target``: renamed to a temporary name first, so that an interruption never
+    leaves a half-deleted folder under its name (the temporary goes like any writer's)."""
+    target = Path(target)
+    remove_stale_temporaries(target)
+    prefix = f".{target.name}.{os.getpid()}."
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, suffix=".tmp", dir=target.parent))
+        os.replace(target, tmp / target.name)
+    finally:
+        _remove_own_temporaries(target.parent, prefix, ".tmp")
+
+
 def write_text(target: str | Path, text: str) -> None:
     with atomic_path(target) as tmp:
         tmp.write_text(text)
