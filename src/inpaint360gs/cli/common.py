@@ -76,30 +76,39 @@ def _os_error(e: OSError) -> str:
     return f"{name}{': ' if name else ''}{e.strerror or _first_line(e)}"
 
 
-def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | None, description: str) -> int:
-    """Parse ``argv`` for one of ``stages`` (name -> (module, help)) and run it; returns the exit code."""
+def _parse(prog: str, stages: dict[str, tuple[str, str]], argv: list[str], description: str) -> argparse.Namespace:
+    """The parsed arguments of the stage ``argv`` names (only its module is imported); a usage error
+    or --help raises SystemExit after printing (one line for an error)."""
     parser = OneLineParser(prog=prog, description=description)
     sub = parser.add_subparsers(dest="stage", metavar="STAGE", required=True, parser_class=OneLineParser)
-    argv = sys.argv[1:] if argv is None else argv
     wanted = argv[0] if argv and not argv[0].startswith("-") else None
     for name, (module, help_text) in stages.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         if name == wanted:  # import only the module that runs
             importlib.import_module(module).add_arguments(p)
-    try:
-        args, extra = parser.parse_known_args(argv)
-        if extra:  # reported by the stage's parser, so that the line names the stage
-            sub.choices[args.stage].error(f"unrecognized arguments: {' '.join(extra)}")
-    except SystemExit as e:  # --help (0) or a usage error (2, already printed on one line)
-        return int(e.code or 0)
-    except OSError as e:  # an argument check that met an OS error the types did not foresee
-        print(f"{' '.join([prog, *([wanted] if wanted else [])])}: error: {_os_error(e)}", file=sys.stderr)
-        return EXIT_INPUT
-    where = f"{prog} {args.stage}"
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # reported by the stage's parser, so that the line names the stage
+        sub.choices[args.stage].error(f"unrecognized arguments: {' '.join(extra)}")
+    return args
+
+
+def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | None, description: str) -> int:
+    """Parse ``argv`` for one of ``stages`` (name -> (module, help)) and run it; returns the exit code.
+    Everything from the first import on is inside the error handling: an OS error in an argument
+    check, or SIGINT / SIGTERM while the stage's modules load, is one line too."""
+    argv = sys.argv[1:] if argv is None else argv
+    where = " ".join([prog, *argv[:1]]) if argv and argv[0] in stages else prog
     old_show = warnings.showwarning
-    _one_line_warnings(where)
-    install_signal_handlers()
+    signal.signal(signal.SIGTERM, _on_sigterm)  # now already: loading a stage takes seconds (torch)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
+        try:
+            args = _parse(prog, stages, argv, description)
+        except SystemExit as e:  # --help (0) or a usage error (2, already printed on one line)
+            return int(e.code or 0)
+        where = f"{prog} {args.stage}"
+        _one_line_warnings(where)
+        install_signal_handlers()
         return int(importlib.import_module(stages[args.stage][0]).run(args) or 0)
     except InputError as e:
         print(f"{where}: error: {e}", file=sys.stderr)
@@ -259,7 +268,7 @@ def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | P
         for other, path in ins:
             if _same(out, path):
                 raise InputError(f"output {name} is the input {other} ({path}); choose another output", outputs[name])
-            if path.is_dir() and _within(out, path):
+            if os.path.isdir(path) and _within(out, path):
                 raise InputError(f"output {name} lies inside the input {other} ({path}), which this stage reads; choose an output outside it", outputs[name])
             if replaced and _within(path, out):
                 raise InputError(f"output {name} holds the input {other} ({path}); choose another output", outputs[name])
