@@ -394,7 +394,7 @@ def test_load_field_checks_the_folder_against_the_scene(blobs, tmp_path):
     assert got.object_ids == IDS and torch.equal(got.gaussians.features, field.gaussians.features)
     rep = json.loads((folder / "distill.json").read_text())
     (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "scene_content_sha256": "0" * 64}}))
-    with pytest.raises(InputError, match=f"made from scene .* not from {scene.root}"):
+    with pytest.raises(InputError, match=f"made from scene .*, but {scene.root} has content"):
         load_field(folder, scene)
     (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "resize": 2}}))
     with pytest.raises(InputError, match="made at --resize 2, but this stage runs at --resize 1"):

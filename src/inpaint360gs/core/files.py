@@ -53,8 +53,8 @@ def path_problem(path: str | Path, *, folder: bool = False) -> str | None:
     if stat.S_ISDIR(st.st_mode):
         return "is a folder, expected a file"
     if not stat.S_ISREG(st.st_mode):
-        what = next((name for test, name in _KINDS if test(st.st_mode)), "not a regular file")
-        return f"not a regular file ({what})"
+        what = next((name for test, name in _KINDS if test(st.st_mode)), "a special file")
+        return f"is {what}, not a regular file"
     return None
 
 

@@ -8,6 +8,7 @@ writer writes atomically (docs/architecture.md, "Reliability").
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -88,7 +89,7 @@ def find_mask(mask_dir: str | Path, candidates: Iterable[str]) -> Path | None:
     mask_dir = Path(mask_dir)
     for name in candidates:
         for cand in (mask_dir / name, *(mask_dir / f"{Path(name).stem}{s}" for s in MASK_SUFFIXES)):
-            if cand.is_file():
+            if cand.is_file() or (os.path.lexists(cand) and not cand.is_dir()):  # a named pipe or a broken link: the reader says so
                 return cand
     return None
 

@@ -187,8 +187,8 @@ def check_scene(rec: Record | None, scene, hint: str, where: str | Path | None =
     if s["content_sha256"] != scene.fingerprint():
         note = f"; {recorded}" if recorded else ""
         raise InputError(
-            f"made from scene {s.get('name') or '?'} (content {short(s['content_sha256'])}{note}), not from {scene.root} "
-            f"(content {short(scene.fingerprint())}): another scene's files; {hint}",
+            f"made from scene {s.get('name') or '?'} (content {short(s['content_sha256'])}{note}), but {scene.root} has content "
+            f"{short(scene.fingerprint())}: another scene's files, or the scene changed since; {hint}",
             where,
         )
 

@@ -16,6 +16,7 @@ but :meth:`Scene.load_image` refuses it unless called with ``allow_test=True`` (
 from __future__ import annotations
 
 import hashlib
+import os
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -268,7 +269,7 @@ def load_scene(
 
     info: dict = {}
     info_path = root / layout.SCENE_JSON
-    if info_path.is_file():
+    if os.path.lexists(info_path):  # a folder, a named pipe or a broken link there is an error, not "no scene.json"
         info = read_json_object(info_path)
 
     kinds = MASK_KINDS if load_masks is True else (() if load_masks is False else tuple(load_masks))

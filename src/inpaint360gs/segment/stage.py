@@ -71,11 +71,11 @@ def segment_scene(
     """Segment every training view of ``scene`` into ``out`` (see the module docstring); returns
     what segment.json holds. ``model`` may be None for a segmenter that does not use it."""
     check_output_dir(out, overwrite)  # before any work
-    # a model another stage recorded as made from another scene is refused (docs/architecture.md, "Provenance chain")
-    model_sha = None if model_path is None else provenance.check_model(model_path, scene, "segment with the model trained on this scene")
     views = scene.train_views
     t0 = time.perf_counter()
     images = {v.name: scene.load_image(v) for v in views}  # decode every input before the work
+    # a model another stage recorded as made from another scene is refused (docs/architecture.md, "Provenance chain")
+    model_sha = None if model_path is None else provenance.check_model(model_path, scene, "segment with the model trained on this scene")
     if segmenter.uses_model:
         if model is None:
             raise InputError(f"segmenter {segmenter.name} needs the trained model", "MODEL")
