@@ -283,6 +283,8 @@ ODD_CASES = [
     *[Case(f"table-paper-record-{k}", T, odd_in(PAPER, "RECORD", k)) for k in ("fifo", "loop")],
     Case("table-paper-config-fifo", T, odd_in(PAPER_CONFIG, "CONFIG", "fifo")),
     Case("table-reconstruction-metrics-fifo", T, odd_in(RECON, "METRICS", "fifo")),
+    Case("evaluate-out-fifo", T, lambda c: (lambda o: (METHOD["evaluate"][0]({k: str(v) for k, v in copy_chain(c).items()}, o), (o, "named pipe")))(str(odd("fifo", c)))),
+    Case("table-record-out-fifo", T, lambda c: (lambda o: (RECORD({k: str(v) for k, v in copy_chain(c).items()}, o), (o, "named pipe")))(str(odd("fifo", c)))),
     *[Case(f"scene-image-{k}", T, odd_in_scene("images/IMG_003.png", k)) for k in REASON],
     Case("scene-json-fifo", T, odd_in_scene("scene.json", "fifo")),
     Case("scene-image-fifo-render", T, odd_in_scene("images/IMG_005.png", "fifo", "render")),

@@ -202,7 +202,7 @@ def check_writable(path: str | Path, *, folder: bool) -> Path:
             if not folder and p.is_dir():
                 raise InputError("output path is a folder, expected a file name", p)
             if not folder and not p.is_file():
-                raise InputError(f"output path exists and is {path_problem(p)}", p)
+                raise InputError(f"output path exists and {path_problem(p)}", p)
         parent = p.parent
         while not parent.exists():
             parent = parent.parent
