@@ -408,7 +408,7 @@ def removal_stage(
         "support": support_note,
         "seconds": round(time.perf_counter() - t0, 2),
         provenance.KEY: provenance.make("remove", scene, {"distill": field_.record.identity if field_.record else None},
-                                        {"clicks": [str(c) for c in clicks], "objects": targets, "config": asdict(cfg)}),
+                                        {"clicks": [str(c) for c in clicks], "objects": targets, "config": asdict(cfg), "backend": backend}),
     }
     with atomic_dir(out, overwrite=overwrite) as tmp:
         write_ply(tmp / "point_cloud.ply", res.kept)
