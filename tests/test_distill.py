@@ -336,6 +336,7 @@ def test_cli(blob_scene, tmp_path, capsys):
     assert main(["distill", s, str(tmp_path / "elsewhere.ply"), a, str(tmp_path / "o6"), "--no-progress"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "elsewhere.ply: no Gaussian of the model projects" in err[0]
-    assert main(["distill", s, m, str(tmp_path), str(tmp_path / "o4"), "--no-progress"]) == 2  # not an association folder
+    (tmp_path / "notassoc").mkdir()
+    assert main(["distill", s, m, str(tmp_path / "notassoc"), str(tmp_path / "o4"), "--no-progress"]) == 2  # not an association folder
     assert "objects.json" in capsys.readouterr().err
     assert main(["distill", s, m, a, str(tmp_path / "o5"), "--iterations", "0"]) == 2

@@ -2,7 +2,7 @@
 depth-guided initialisation (exact back-projection of a known plane), every term of Eq. 6 against a
 hand computation, the crop the 3D stage optimises on, which Gaussians 3D inpainting may change, and
 recursive conditioning along two overlapping views. The stage's CLI on bad input is in
-``test_bad_input_inpaint.py``; virtual cameras and unseen masks in ``test_views.py``."""
+``reliability/test_bad_input_inpaint.py``; virtual cameras and unseen masks in ``test_views.py``."""
 
 from __future__ import annotations
 

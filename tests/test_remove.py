@@ -394,10 +394,11 @@ def test_load_field_checks_the_folder_against_the_scene(blobs, tmp_path):
     assert got.object_ids == IDS and torch.equal(got.gaussians.features, field.gaussians.features)
     rep = json.loads((folder / "distill.json").read_text())
     (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "scene_content_sha256": "0" * 64}}))
-    with pytest.raises(InputError, match="distilled from other scene content"):
+    with pytest.raises(InputError, match=f"made from scene .*, but {scene.root} has content"):
         load_field(folder, scene)
-    (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "scene_content_sha256": "0" * 64, "resize": 2}}))
-    load_field(folder, scene)  # another resolution's hash: not comparable, not refused
+    (folder / "distill.json").write_text(json.dumps({**rep, "inputs": {**rep["inputs"], "resize": 2}}))
+    with pytest.raises(InputError, match="made at --resize 2, but this stage runs at --resize 1"):
+        load_field(folder, scene)  # docs/architecture.md, "Provenance chain"
     (folder / "distill.json").write_text(json.dumps({**rep, "num_gaussians": 5}))
     with pytest.raises(InputError, match=f"holds {len(field.gaussians)} Gaussians but distill.json records 5"):
         load_field(folder, scene)

@@ -9,17 +9,11 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from dataset_tools.capture.validate import validate_scene
-from inpaint360gs.cli.common import existing_dir, output_file
-from inpaint360gs.core import layout
+from inpaint360gs.cli.common import check_apart, existing_dir, output_file
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.atomic import write_text
-
-# what a --json report inside the scene folder must not overwrite
-_SCENE_FILES = {layout.SCENE_JSON, "build_report.json", "import_report.json"}
-_SCENE_DIRS = {layout.IMAGES_DIR, "sparse", layout.UNSEEN_MASK_DIR, layout.OBJECT_MASK_DIR, layout.GT_DIR}
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -28,20 +22,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", type=output_file, default=None, help="also write the report as JSON here")
 
 
-def _check_json_target(scene: Path, target: Path) -> None:
-    """The report may go inside the scene folder, but not over one of its files."""
-    try:
-        rel = target.resolve().relative_to(scene.resolve())
-    except ValueError:
-        return
-    top = rel.parts[0] if rel.parts else ""
-    if str(rel) in _SCENE_FILES or top in _SCENE_DIRS or top.startswith(f"{layout.IMAGES_DIR}_"):
-        raise InputError(f"would overwrite part of the scene being validated ({rel})", "--json")
-
-
 def run(args: argparse.Namespace) -> int:
-    if args.json is not None:
-        _check_json_target(args.scene, args.json)
+    check_apart({"--json": args.json}, {"SCENE": args.scene}, replaced=False)  # never inside the scene being validated
     report = validate_scene(args.scene, require_unseen_masks=not args.no_unseen_masks)
     print(report.format())
     if args.json is not None:

@@ -100,6 +100,22 @@ def scene_dir(scene):
     return f"{DATA}/{scene}"
 
 
+def _overlap(a, b):
+    """Whether folder ``a`` is ``b`` or lies inside it (paths resolved: links, ``..``)."""
+    a, b = os.path.realpath(a), os.path.realpath(b)
+    return a == b or a.startswith(b.rstrip(os.sep) + os.sep)
+
+
+# Outputs never inside inputs (docs/architecture.md, "Reliability"): a scene's stage outputs, the
+# tables, and the scene folders the stages read must not overlap, or a rerun would write into a scene.
+for _name in sorted(set(SCENES + TRAIN_SCENES)):
+    _scene = scene_dir(_name)
+    for _key, _out in (("out_dir", f"{OUT}/{_name}"), ("results_dir", RESULTS)):
+        if _overlap(_out, _scene) or (_key == "out_dir" and _overlap(_scene, _out)):
+            raise WorkflowError(f"config: {_key} {config[_key]!r} overlaps the scene folder {_scene!r} of scene {_name!r}: "
+                                "outputs must lie outside every scene folder")
+
+
 def runs():
     """(scene, segmenter, method) of every run; the oracle segmenter reads the generator's ground
     truth, so it runs on synthetic scenes only."""

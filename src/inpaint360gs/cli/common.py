@@ -33,6 +33,7 @@ from inpaint360gs.core.errors import (
     Terminated,
     TrainingDivergedError,
 )
+from inpaint360gs.core.files import path_problem
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -69,27 +70,45 @@ def _first_line(e: BaseException) -> str:
     return text.splitlines()[0] if text else type(e).__name__
 
 
-def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | None, description: str) -> int:
-    """Parse ``argv`` for one of ``stages`` (name -> (module, help)) and run it; returns the exit code."""
+def _os_error(e: OSError) -> str:
+    """``path: OS reason`` of an OS error, on one line."""
+    name = e.filename if e.filename is not None else ""
+    return f"{name}{': ' if name else ''}{e.strerror or _first_line(e)}"
+
+
+def _parse(prog: str, stages: dict[str, tuple[str, str]], argv: list[str], description: str) -> argparse.Namespace:
+    """The parsed arguments of the stage ``argv`` names (only its module is imported); a usage error
+    or --help raises SystemExit after printing (one line for an error)."""
     parser = OneLineParser(prog=prog, description=description)
     sub = parser.add_subparsers(dest="stage", metavar="STAGE", required=True, parser_class=OneLineParser)
-    argv = sys.argv[1:] if argv is None else argv
     wanted = argv[0] if argv and not argv[0].startswith("-") else None
     for name, (module, help_text) in stages.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         if name == wanted:  # import only the module that runs
             importlib.import_module(module).add_arguments(p)
-    try:
-        args, extra = parser.parse_known_args(argv)
-        if extra:  # reported by the stage's parser, so that the line names the stage
-            sub.choices[args.stage].error(f"unrecognized arguments: {' '.join(extra)}")
-    except SystemExit as e:  # --help (0) or a usage error (2, already printed on one line)
-        return int(e.code or 0)
-    where = f"{prog} {args.stage}"
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # reported by the stage's parser, so that the line names the stage
+        sub.choices[args.stage].error(f"unrecognized arguments: {' '.join(extra)}")
+    return args
+
+
+def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | None, description: str) -> int:
+    """Parse ``argv`` for one of ``stages`` (name -> (module, help)) and run it; returns the exit code.
+    Everything from the first import on is inside the error handling: an OS error in an argument
+    check, or SIGINT / SIGTERM while the stage's modules load, is one line too."""
+    argv = sys.argv[1:] if argv is None else argv
+    where = " ".join([prog, *argv[:1]]) if argv and argv[0] in stages else prog
     old_show = warnings.showwarning
-    _one_line_warnings(where)
-    install_signal_handlers()
+    signal.signal(signal.SIGTERM, _on_sigterm)  # now already: loading a stage takes seconds (torch)
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
+        try:
+            args = _parse(prog, stages, argv, description)
+        except SystemExit as e:  # --help (0) or a usage error (2, already printed on one line)
+            return int(e.code or 0)
+        where = f"{prog} {args.stage}"
+        _one_line_warnings(where)
+        install_signal_handlers()
         return int(importlib.import_module(stages[args.stage][0]).run(args) or 0)
     except InputError as e:
         print(f"{where}: error: {e}", file=sys.stderr)
@@ -104,8 +123,7 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
         print(f"{where}: terminated (partial outputs removed; rerun to continue)", file=sys.stderr)
         return EXIT_SIGTERM
     except OSError as e:  # disk full, permission denied, a path component that is a file, ...
-        name = e.filename if e.filename is not None else ""
-        print(f"{where}: error: {name}{': ' if name else ''}{e.strerror or _first_line(e)}", file=sys.stderr)
+        print(f"{where}: error: {_os_error(e)}", file=sys.stderr)
         return EXIT_INPUT
     except MemoryError:
         print(f"{where}: error: out of memory (try smaller images, --resize, or fewer Gaussians)", file=sys.stderr)
@@ -157,15 +175,11 @@ fraction = number(float, lo=0.0, hi=1.0)
 
 
 def _existing(folder: bool) -> Callable[[str], Path]:
-    kind = "folder" if folder else "file"
-
     def parse(text: str) -> Path:
-        p = Path(text)
-        if not p.exists():
-            raise argparse.ArgumentTypeError(f"{text}: {kind} not found")
-        if p.is_dir() != folder:
-            raise argparse.ArgumentTypeError(f"{text}: not a {kind}")
-        return p
+        problem = path_problem(text, folder=folder)
+        if problem is not None:
+            raise argparse.ArgumentTypeError(f"{text}: {problem}")
+        return Path(text)
 
     return parse
 
@@ -178,18 +192,26 @@ def check_writable(path: str | Path, *, folder: bool) -> Path:
     """Raise :class:`InputError` unless ``path`` can be created or replaced as a folder (or file):
     not an existing file (folder), not an existing folder (file), no parent that is a file, writable."""
     p = Path(path)
-    if p.exists():
-        if folder and not p.is_dir():
-            raise InputError("output path exists and is not a folder", p)
-        if not folder and p.is_dir():
-            raise InputError("output path is a folder, expected a file name", p)
-    parent = p.parent
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
-        raise InputError(f"cannot create the output: {parent} is a file", p)
-    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
-        raise InputError("output location is not writable", p if p.exists() else parent)
+    try:
+        if os.path.lexists(p) and not p.exists():
+            raise InputError("output path is a broken symbolic link or a symbolic link loop", p)
+        if p.exists():
+            if folder and not p.is_dir():
+                what = "an empty file" if p.is_file() and p.stat().st_size == 0 else "a file" if p.is_file() else "not a folder"
+                raise InputError(f"output path exists and is {what}, not a folder", p)
+            if not folder and p.is_dir():
+                raise InputError("output path is a folder, expected a file name", p)
+            if not folder and not p.is_file():
+                raise InputError(f"output path exists and {path_problem(p)}", p)
+        parent = p.parent
+        while not parent.exists():
+            parent = parent.parent
+        if not parent.is_dir():
+            raise InputError(f"cannot create the output: {parent} is a file", p)
+        if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+            raise InputError("output location is not writable", p if p.exists() else parent)
+    except OSError as e:  # a name too long, a symbolic link loop in a parent, ...
+        raise InputError(e.strerror or _first_line(e), path) from None
     return p
 
 
@@ -207,22 +229,51 @@ output_dir = _writable(folder=True)  # argument type: a folder to create or repl
 output_file = _writable(folder=False)  # argument type: a file to create or replace
 
 
-def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None], *, replaced: bool = True) -> None:
-    """Raise :class:`InputError` when writing an output would destroy an input or another output.
+def _resolved(p: str | Path) -> Path:
+    try:
+        return Path(p).resolve()
+    except (OSError, RuntimeError):  # a symbolic link loop on older Pythons
+        return Path(os.path.abspath(p))
 
-    ``outputs`` and ``inputs`` map an argument's name to its path (None: not given). An output may
-    not be an input, nor (when the stage ``replaced`` its output folder as a whole, as the atomic
-    folder writers do) a folder that holds an input; two outputs may not be the same path.
+
+def _same(a: Path, b: Path) -> bool:
+    """The same file or folder: equal once resolved, or the same inode (a bind mount, a hard link)."""
+    if a == b:
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _within(inner: Path, outer: Path) -> bool:
+    """``inner`` lies inside the folder ``outer`` (both resolved)."""
+    return any(_same(p, outer) for p in inner.parents)
+
+
+def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None], *, replaced: bool = True) -> None:
+    """Raise :class:`InputError` when writing an output would destroy an input or another output
+    (docs/architecture.md, "Reliability": inputs are never written).
+
+    ``outputs`` and ``inputs`` map an argument's name to its path (None: not given). Paths are
+    compared resolved (symbolic links, ``..``, relative paths) and by inode (the same folder under two
+    names). An output may not be an input, nor lie inside an input folder (a scene folder, a stage's
+    output; with or without ``--overwrite``), nor (when the stage ``replaced`` its output folder as a
+    whole, as the atomic folder writers do) be a folder that holds an input; two outputs may not be
+    the same path. A command that writes into a scene (``unseen-masks``) does not list the scene.
     """
-    outs = [(k, Path(v).resolve()) for k, v in outputs.items() if v is not None]
-    ins = [(k, Path(v).resolve()) for k, v in inputs.items() if v is not None]
+    outs = [(k, _resolved(v)) for k, v in outputs.items() if v is not None]
+    ins = [(k, _resolved(v)) for k, v in inputs.items() if v is not None]
     for i, (name, out) in enumerate(outs):
         for other, path in ins:
-            if out == path or (replaced and out in path.parents):
-                what = "is" if out == path else "holds"
-                raise InputError(f"output {name} {what} the input {other} ({path}); choose another output", outputs[name])
+            if _same(out, path):
+                raise InputError(f"output {name} is the input {other} ({path}); choose another output", outputs[name])
+            if os.path.isdir(path) and _within(out, path):
+                raise InputError(f"output {name} lies inside the input {other} ({path}), which this stage reads; choose an output outside it", outputs[name])
+            if replaced and _within(path, out):
+                raise InputError(f"output {name} holds the input {other} ({path}); choose another output", outputs[name])
         for other, path in outs[:i]:
-            if out == path:
+            if _same(out, path):
                 raise InputError(f"{other} and {name} are the same path; one output would overwrite the other", outputs[name])
 
 

@@ -18,6 +18,7 @@ from inpaint360gs.cli.common import (
     existing_file,
     nonneg_float,
     nonneg_int,
+    number,
     output_dir,
     positive_float,
     positive_int,
@@ -43,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--features-lr", type=positive_float, default=d.features_lr, help=f"Adam learning rate of the features (default {d.features_lr:g})")
     parser.add_argument("--classifier-lr", type=positive_float, default=d.classifier_lr, help=f"Adam learning rate of the classifier (default {d.classifier_lr:g})")
     parser.add_argument(
-        "--min-weight", type=nonneg_float, default=d.min_weight,
+        "--min-weight", type=number(float, lo=0.0, hi=1.0, hi_open=True), default=d.min_weight,
         help="drop cached compositing weights below this (default 0: exact; see README on what pruning costs)",
     )  # fmt: skip
     parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor (masks must have the views' size)")

@@ -11,7 +11,7 @@ import argparse
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from inpaint360gs.cli.common import add_threads_argument, existing_dir, existing_file, output_file
+    from inpaint360gs.cli.common import add_threads_argument, existing_dir, existing_file, output_file, positive_int
     from inpaint360gs.metrics.weights import INCEPTION_ENV
 
     parser.add_argument("renders", type=existing_dir, help="one PNG per test_ view, named like the test image (test_0003.png)")
@@ -19,7 +19,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("out", type=output_file, help="metrics JSON to write")
     parser.add_argument("--nets", default="vgg,alex", help="LPIPS networks, comma-separated (default vgg,alex; lpips = vgg as the paper's code)")
     parser.add_argument("--inception-weights", type=existing_file, default=None, help=f"pt_inception-2015-12-05 weights for FID (default ${INCEPTION_ENV}; without them fid is null with the reason)")
-    parser.add_argument("--resize", type=int, default=1, help="image downscale factor of the scene")
+    parser.add_argument("--resize", type=positive_int, default=1,
+                        help="image downscale factor of the scene: the renders have the test views' size at it (as given to `render --resize`)")
     add_threads_argument(parser)
 
 
@@ -28,7 +29,6 @@ def run(args: argparse.Namespace) -> int:
 
     from inpaint360gs.cli.common import check_apart, set_threads
     from inpaint360gs.core.errors import InputError
-    from inpaint360gs.core.layout import IMAGE_SUFFIXES
     from inpaint360gs.io.atomic import write_text
     from inpaint360gs.metrics.evaluate import evaluate_renders
 
@@ -37,12 +37,8 @@ def run(args: argparse.Namespace) -> int:
     bad = [n for n in nets if n not in ("vgg", "alex")]
     if bad or not nets:
         raise InputError(f"unknown LPIPS network(s) {bad or nets} (vgg, alex)", "--nets")
-    check_apart({"OUT": args.out}, {"RENDERS": args.renders, "SCENE": args.scene}, replaced=False)
-    # nor a file the stage reads: anything in SCENE, a picture in RENDERS
-    out = args.out.resolve()
-    if args.scene.resolve() in out.parents or (args.renders.resolve() in out.parents and out.suffix.lower() in IMAGE_SUFFIXES):
-        raise InputError(f"output OUT lies inside the input {'SCENE' if args.scene.resolve() in out.parents else 'RENDERS'}, whose files this stage reads; choose another output", args.out)
-    res = evaluate_renders(args.renders, args.scene, nets=nets, inception_weights=args.inception_weights)
+    check_apart({"OUT": args.out}, {"RENDERS": args.renders, "SCENE": args.scene, "--inception-weights": args.inception_weights}, replaced=False)
+    res = evaluate_renders(args.renders, args.scene, nets=nets, inception_weights=args.inception_weights, resize=args.resize)
     write_text(args.out, json.dumps(res, indent=1, allow_nan=False) + "\n")
     if not res.get("ground_truth", True):
         print(f"{res.get('scene', args.scene)}: {res['reason']}; every metric is null -> {args.out}")

@@ -56,11 +56,11 @@ def run(args: argparse.Namespace) -> int:
     where = "--click"
     if not clicks and not args.id:  # as `inpaint360gs run`: the clicks scene.json names
         from inpaint360gs.core.errors import InputError
-        from inpaint360gs.pipeline.run import scene_clicks
+        from inpaint360gs.pipeline.run import no_clicks_reason, scene_clicks
 
         clicks, where = scene_clicks(scene), scene.root / "scene.json"
         if not clicks:
-            raise InputError("nothing selected: give --click VIEW:X,Y or --id N (scene.json names no clicks)", scene.root / "scene.json")
+            raise InputError(f"nothing selected: give --click VIEW:X,Y or --id N ({no_clicks_reason(scene)})", scene.root / "scene.json")
     check_clicks(scene, clicks, where)
     field = load_field(args.distill, scene)
     info = removal_stage(field, scene, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,

@@ -43,6 +43,7 @@ def run(args: argparse.Namespace) -> int:
     import torch
 
     from inpaint360gs.core.errors import InputError
+    from inpaint360gs.io import provenance
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.render.views import render_views
@@ -59,9 +60,13 @@ def run(args: argparse.Namespace) -> int:
                          "use --split train, holdout or all", args.scene)
     if not views:
         raise InputError(f"the scene has no {args.split} views (llffhold={args.llffhold}); nothing to render", args.scene)
+    # a model a stage recorded as made from another scene is refused (docs/architecture.md, "Provenance chain")
+    model_sha = provenance.check_model(args.model, scene, "render it at the scene it was made from")
     bg = torch.ones(3) if args.white_background else torch.zeros(3)
+    settings = {"views": [v.name for v in views], "sh_degree": args.sh_degree, "white_background": args.white_background}
+    meta = {"model": str(args.model), "split": args.split, provenance.KEY: provenance.make("render", scene, {"model": model_sha}, settings)}
     summary = render_views(model, scene, views, args.out, sh_degree=args.sh_degree, background=bg, backend=args.backend, overwrite=args.overwrite,
-                           progress=not args.no_progress, meta={"model": str(args.model), "split": args.split})
+                           progress=not args.no_progress, meta=meta)
     if views and summary["empty_views"] == len(views):
         warnings.warn(f"{args.model}: every rendered pixel is background in all {len(views)} view(s); is this model in this scene's frame, with sensible scales and opacities?")
     print(f"rendered {len(views)} {args.split} view(s) of {scene.name} to {args.out}")

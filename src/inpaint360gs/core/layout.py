@@ -31,6 +31,18 @@ SCENE_JSON = "scene.json"
 RENDER_COLOR_DIR = "color"
 GT_DIR = "gt"
 
+# The JSON each stage writes into its output folder (docs/architecture.md, "Stage outputs"): its
+# settings, timings and provenance record ("Provenance chain"), keyed by the stage's name.
+STAGE_RECORDS = {
+    "train": "metrics.json",
+    "segment": "segment.json",
+    "associate": "objects.json",
+    "distill": "distill.json",
+    "remove": "removal.json",
+    "inpaint": "inpaint.json",
+    "render": "render.json",
+}
+
 TEST_PREFIX = "test_"
 # Image files a scene folder or a capture folder may hold (what OpenCV, PIL and COLMAP all read).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")

@@ -19,6 +19,7 @@ import torch
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import write_text
 from inpaint360gs.io.ply import read_ply
 
@@ -44,6 +45,7 @@ class IdentityField:
     gaussians: Gaussians
     classifier: torch.nn.Linear
     object_ids: list[int]  # class -> object id (class 0 = background, id 0)
+    record: provenance.Record | None = None  # what it was distilled from (when loaded from a folder)
 
     def __post_init__(self):
         f = self.gaussians.features
@@ -93,8 +95,10 @@ class IdentityField:
 
     @staticmethod
     def load(folder: str | Path, *, device: torch.device | str = "cpu") -> "IdentityField":
-        """Read a distillation output folder (``point_cloud.ply`` + ``classifier.json``)."""
+        """Read a distillation output folder (``point_cloud.ply`` + ``classifier.json``, and the
+        provenance record of its ``distill.json`` when there is one)."""
         folder = Path(folder)
+        record = provenance.of_stage(folder, "distill")
         classifier, ids = read_classifier(folder / CLASSIFIER_JSON)
         g = read_ply(folder / MODEL_PLY, device=device)
         if g.features is None:
@@ -104,7 +108,7 @@ class IdentityField:
                 f"{MODEL_PLY} has {g.features.shape[1]} identity feature channels but the classifier expects {classifier.in_features}: files of two runs?",
                 folder / CLASSIFIER_JSON,
             )
-        return IdentityField(g, classifier.to(device), ids)
+        return IdentityField(g, classifier.to(device), ids, record)
 
 
 def classifier_dict(classifier: torch.nn.Linear, object_ids: Sequence[int]) -> dict:

@@ -39,6 +39,7 @@ from inpaint360gs.distill.labels import Labels, load_labels, read_objects
 from inpaint360gs.distill.loss import knn_graph, object_loss, spatial_loss
 from inpaint360gs.gs.loop import OptimizationLoop, Target, TargetList
 from inpaint360gs.gs.trainer import peak_rss_mb
+from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.ply import read_ply, write_ply
 from inpaint360gs.io.scene import Scene
@@ -68,8 +69,12 @@ def cache_views(model: Gaussians, labels: Labels, cfg: DistillConfig, where: str
     covered = sum(int((c.alpha() >= 0.5).sum()) for c in cache.values())
     total = sum(c.width * c.height for c in cache.values())
     if sum(c.nnz for c in cache.values()) == 0:
+        if cfg.min_weight > 0:
+            raise InputError(f"no compositing weight in any of the {len(cache)} training views is at least {cfg.min_weight:g}: lower it (weights lie in [0, 1])", "--min-weight")
         raise InputError(f"no Gaussian of the model projects into any of the {len(cache)} training views; is the model from this scene?", where)
     if covered < MIN_COVERAGE * total:
+        if cfg.min_weight > 0:
+            raise InputError(f"after dropping weights below {cfg.min_weight:g} the model covers {100 * covered / total:.2f}% of the training pixels: lower it", "--min-weight")
         raise InputError(
             f"the model covers only {100 * covered / total:.2f}% of the training pixels (alpha >= 0.5); is the model from this scene?", where
         )
@@ -207,12 +212,20 @@ def distill(
     if out is not None and out.exists() and any(out.iterdir()) and not overwrite:
         raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", out)
     inputs: dict = {"scene": str(scene.root), "scene_content_sha256": scene.fingerprint(), "resize": scene.resize}
+    # the association and the model must be of this scene, the association made with this model
+    # (docs/architecture.md, "Provenance chain")
+    made = provenance.read(objects, "associate") if isinstance(objects, (str, Path)) else None
+    provenance.check_scene(made, scene, "associate this scene first")
+    model_sha = None
     if isinstance(model, (str, Path)):
-        inputs.update(model=str(model), model_sha256=sha256_file(Path(model)))
+        model_sha = provenance.check_model(model, scene)
+        provenance.check_link(made, "model", model_sha, model, "associate with this model first, or give the model the masks were made with")
+        inputs.update(model=str(model), model_sha256=model_sha)
         model = read_ply(model)
     if isinstance(objects, (str, Path)):
         inputs.update(objects=str(objects), objects_sha256=sha256_file(Path(objects)))
         objects = read_objects(objects)
+    upstream = made.identity if made is not None and made.identity else inputs.get("objects_sha256")
     labels = load_labels(masks_dir, scene.train_views, objects)
     inputs.update(masks_dir=str(masks_dir), masks_sha256=labels.sha256())
     model = model.map(lambda t: t.detach())
@@ -248,6 +261,7 @@ def distill(
     report = {
         "stage": "distill",
         "inputs": inputs,
+        provenance.KEY: provenance.make("distill", scene, {"model": model_sha, "associate": upstream}, cfg.to_dict()),
         "settings": cfg.to_dict(),
         "object_ids": field.object_ids,
         "class_pixel_counts": labels.pixel_counts,
@@ -276,6 +290,7 @@ def distill(
         with atomic_dir(out, overwrite=True) as tmp:
             write_ply(tmp / MODEL_PLY, field.gaussians)
             write_classifier(tmp / CLASSIFIER_JSON, field.classifier, field.object_ids)
+            provenance.add_outputs(report, tmp, MODEL_PLY)
             report["timing_s"]["total"] = round(time.perf_counter() - t_start, 2)
             report["peak_rss_mb"] = round(peak_rss_mb(), 1)
             (tmp / DISTILL_JSON).write_text(json.dumps(report, indent=2) + "\n")

@@ -38,6 +38,7 @@ from inpaint360gs.gs.loss import photometric_loss
 from inpaint360gs.gs.loop import OptimizationLoop, SceneViews, Target
 from inpaint360gs.gs.optim import Params, learning_rates, means_lr
 from inpaint360gs.gs.strategy import DensifyStrategy
+from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import atomic_path, write_text
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
@@ -328,7 +329,10 @@ class Trainer:
             "seed": cfg.seed,
             "resumed_from_step": self.resumed_from,  # None: trained from step 0 in one go
             "per_view": ev["per_view"],
+            # what the model was made from (docs/architecture.md, "Provenance chain")
+            provenance.KEY: provenance.make("train", self.scene, {}, self.user_cfg.to_dict()),
         }
+        provenance.add_outputs(metrics, self.out, "point_cloud.ply")
         with atomic_path(self.out / "metrics.json") as tmp:
             tmp.write_text(json.dumps(metrics, indent=2) + "\n")
         return TrainResult(gaussians=model, metrics=metrics, out_dir=self.out, steps=self.step)

@@ -33,6 +33,7 @@ from inpaint360gs.inpaint.conditioned import inpaint_views, reprojection_error
 from inpaint360gs.inpaint.init import depth_guided_init, naive_init
 from inpaint360gs.inpaint.inpainters import DEFAULT_DEPTH, DEFAULT_RGB, make_inpainter
 from inpaint360gs.inpaint.refine import RefineConfig, refine
+from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_image, write_mask
 from inpaint360gs.io.ply import write_ply
@@ -366,6 +367,7 @@ def write_inpainting(
         record["grid"] = grid
         if before:
             write_image(tmp / "grid.png", _grid(before, after))
+        provenance.add_outputs(record, tmp, "point_cloud.ply")
         (tmp / "inpaint.json").write_text(json.dumps(record, indent=1, default=float) + "\n")
 
 
@@ -410,8 +412,13 @@ def inpaint_from_removal(field_: IdentityField, removed_dir: str | Path, scene: 
     out = Path(out)
     if out.is_dir() and any(out.iterdir()) and not overwrite:  # before any work (atomic_dir checks again at the end)
         raise InputError("output folder exists and is not empty (pass --overwrite to replace it)", out)
+    removal, made = provenance.of_stage(removed_dir, "remove"), field_.record  # docs/architecture.md, "Provenance chain"
+    provenance.check_scene(made, scene, "distill this scene first")
+    provenance.check_scene(removal, scene, "remove from this scene's distillation first")
+    provenance.check_link(removal, "distill", made and made.identity, made and made.path.parent, "give the distillation the removal was made from")
     mask, ids = read_removal(removed_dir, len(field_.gaussians))
     final, record, views = inpaint_scene(field_, mask, ids, scene, cfg, progress=progress, removal=removed_dir, footprints=read_footprints(removed_dir))
     record["seconds"]["total_s"] = round(time.perf_counter() - t0, 2)
+    record[provenance.KEY] = provenance.make("inpaint", scene, {"distill": made and made.identity, "removal": removal and removal.identity}, asdict(cfg))
     write_inpainting(final, field_.gaussians, record, views, scene, out, backend=cfg.backend, overwrite=overwrite)
     return record

@@ -61,7 +61,27 @@ def remove_stale_temporaries(target: str | Path) -> list[Path]:
     if old.exists() and target.exists():
         shutil.rmtree(old, ignore_errors=True)
         removed.append(old)
+    elif old.exists():  # killed after the previous output was moved aside: put it back as it was
+        os.replace(old, target)
     return removed
+
+
+@contextlib.contextmanager
+def _signals_held() -> Iterator[None]:
+    """SIGINT and SIGTERM wait until the block is done (they are delivered right after): a replace is
+    never left half done by an interruption. Main thread on POSIX only; elsewhere a no-op."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = {signal.SIGINT, signal.SIGTERM}
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
 def _remove_own_temporaries(folder: Path, prefix: str, suffix: str) -> None:
@@ -122,15 +142,29 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
         tmp = Path(tempfile.mkdtemp(prefix=prefix, suffix=".tmp", dir=target.parent))
         yield tmp
         _publish_mode(tmp, folder=True)  # what it holds was created with ordinary (umask) modes
-        if target.exists():
-            old = target.with_name(f".{target.name}.old")
-            if old.exists():
+        with _signals_held():
+            if target.exists():
+                old = target.with_name(f".{target.name}.old")
+                if old.exists():
+                    shutil.rmtree(old)
+                os.replace(target, old)
+                os.replace(tmp, target)
                 shutil.rmtree(old)
-            os.replace(target, old)
-            os.replace(tmp, target)
-            shutil.rmtree(old)
-        else:
-            os.replace(tmp, target)
+            else:
+                os.replace(tmp, target)
+    finally:
+        _remove_own_temporaries(target.parent, prefix, ".tmp")
+
+
+def remove_tree(target: str | Path) -> None:
+    """Delete the folder ``target``: renamed to a temporary name first, so that an interruption never
+    leaves a half-deleted folder under its name (the temporary goes like any writer's)."""
+    target = Path(target)
+    remove_stale_temporaries(target)
+    prefix = f".{target.name}.{os.getpid()}."
+    try:
+        tmp = Path(tempfile.mkdtemp(prefix=prefix, suffix=".tmp", dir=target.parent))
+        os.replace(target, tmp / target.name)
     finally:
         _remove_own_temporaries(target.parent, prefix, ".tmp")
 

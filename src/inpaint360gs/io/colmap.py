@@ -18,6 +18,7 @@ import numpy as np
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import path_problem
 
 # Camera models without lens distortion: the only ones the scene layout accepts.
 PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE")
@@ -50,6 +51,11 @@ def read_model(path: str | Path):
     path = Path(path)
     if not path.is_dir():
         raise InputError("COLMAP model folder missing", path)
+    for name in ("cameras", "images", "points3D"):
+        for f in (path / f"{name}.bin", path / f"{name}.txt"):
+            problem = path_problem(f)
+            if problem is not None and problem != "file not found":  # a named pipe would block the reader
+                raise InputError(problem, f)
     has_bin = all((path / f).is_file() for f in ("cameras.bin", "images.bin", "points3D.bin"))
     has_txt = all((path / f).is_file() for f in ("cameras.txt", "images.txt", "points3D.txt"))
     if not (has_bin or has_txt):

@@ -8,6 +8,7 @@ writer writes atomically (docs/architecture.md, "Reliability").
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -16,16 +17,21 @@ import numpy as np
 import torch
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import path_problem
 from inpaint360gs.core.layout import MASK_SUFFIXES
 from inpaint360gs.io.atomic import atomic_path
 
+# OpenCV's decoders print a "[ WARN:...]" line of their own on a corrupt file (a truncated PNG),
+# before the one-line error the readers below raise naming the file: keep only errors.
+cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
 
 
 def read_image(path: str | Path) -> np.ndarray:
     """RGB image as (H, W, 3) uint8 or uint16, as stored; grey is replicated, alpha is dropped."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError("image file not found", path)
+    problem = path_problem(path)
+    if problem is not None:
+        raise InputError(problem.replace("file not found", "image file not found"), path)
     data = path.read_bytes()
     if not data:
         raise InputError("empty file (0 bytes), not an image", path)
@@ -52,8 +58,9 @@ def read_image(path: str | Path) -> np.ndarray:
 def read_mask(path: str | Path) -> np.ndarray:
     """Single-channel mask as stored, (H, W) uint8/uint16 (first channel of a colour file)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError("mask file not found", path)
+    problem = path_problem(path)
+    if problem is not None:
+        raise InputError(problem.replace("file not found", "mask file not found"), path)
     m = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if m is None:
         raise InputError("cannot decode mask (corrupt or unsupported format)", path)
@@ -82,7 +89,7 @@ def find_mask(mask_dir: str | Path, candidates: Iterable[str]) -> Path | None:
     mask_dir = Path(mask_dir)
     for name in candidates:
         for cand in (mask_dir / name, *(mask_dir / f"{Path(name).stem}{s}" for s in MASK_SUFFIXES)):
-            if cand.is_file():
+            if cand.is_file() or (os.path.lexists(cand) and not cand.is_dir()):  # a named pipe or a broken link: the reader says so
                 return cand
     return None
 
@@ -92,6 +99,9 @@ def image_size(path: str | Path) -> tuple[int, int]:
     from PIL import Image, UnidentifiedImageError
 
     path = Path(path)
+    problem = path_problem(path)
+    if problem is not None:
+        raise InputError(problem, path)
     try:
         with Image.open(path) as im:
             return int(im.width), int(im.height)

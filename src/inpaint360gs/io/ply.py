@@ -18,6 +18,7 @@ import torch
 from plyfile import PlyData, PlyElement
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import check_readable
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.atomic import atomic_path
 
@@ -79,8 +80,7 @@ def _numbered(names: list[str], prefix: str) -> list[str]:
 def read_ply(path: str | Path, *, device: torch.device | str = "cpu") -> Gaussians:
     """Read a Gaussian PLY written by this code, the original 3DGS or Gaussian Grouping."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError("PLY file not found", path)
+    check_readable(path, "a Gaussian PLY file", missing="PLY file not found")
     try:
         ply = PlyData.read(str(path))
     except Exception as e:  # plyfile raises PlyHeaderParseError, ValueError, struct errors...

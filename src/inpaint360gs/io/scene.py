@@ -16,6 +16,7 @@ but :meth:`Scene.load_image` refuses it unless called with ``allow_test=True`` (
 from __future__ import annotations
 
 import hashlib
+import os
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -28,7 +29,7 @@ import torch
 from inpaint360gs.core import layout
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError, TestPixelAccessError
-from inpaint360gs.core.files import read_json_object
+from inpaint360gs.core.files import path_problem, read_json_object
 from inpaint360gs.core.layout import Split
 from inpaint360gs.io.colmap import image_camera, read_model
 from inpaint360gs.io.images import binary_mask, find_mask, image_size, read_image, read_mask, resize_image, resize_mask, to_float
@@ -70,6 +71,7 @@ class Scene:
     info: dict = field(default_factory=dict)  # scene.json ({} when absent)
     masks: dict[str, dict[str, Path]] = field(default_factory=dict)  # kind -> view name -> file
     unregistered: list[str] = field(default_factory=list)  # files in images/ not in the model
+    _fingerprint: str | None = field(default=None, repr=False, compare=False)
 
     @property
     def name(self) -> str:
@@ -141,8 +143,12 @@ class Scene:
         return binary_mask(m) if kind == layout.UNSEEN_MASK_DIR else m
 
     def fingerprint(self) -> str:
-        """sha256 over the content a method stage may read: the sparse model's files and the pixels
-        files of every non-test view (names and bytes). Identifies a scene by content, not by name."""
+        """sha256 over the content a method stage may read: the sparse model's files and the images/
+        files of every non-test view (names and bytes; the originals, whatever ``resize`` reads, so
+        that the hash does not depend on it). Identifies a scene by content, not by name
+        (docs/architecture.md, "Provenance chain"); computed once per loaded scene."""
+        if self._fingerprint is not None:
+            return self._fingerprint
         h = hashlib.sha256()
         sparse = self.root / layout.SPARSE_DIR
         for p in sorted(sparse.iterdir()):
@@ -150,8 +156,9 @@ class Scene:
                 h.update(p.name.encode() + b"\0" + p.read_bytes())
         for v in self.views:
             if not v.is_test:
-                h.update(v.name.encode() + b"\0" + v.image_path.read_bytes())
-        return h.hexdigest()
+                h.update(v.name.encode() + b"\0" + (self.root / layout.IMAGES_DIR / v.name).read_bytes())
+        self._fingerprint = h.hexdigest()
+        return self._fingerprint
 
     @property
     def extent(self) -> float:
@@ -215,8 +222,10 @@ def load_scene(
             continue
         full = image_camera(rec, im, sparse / f"cameras{ext}")
         src = images_dir / im.name
-        if not src.is_file():
-            raise InputError(f"image {im.name} is registered in sparse/0 but missing on disk", src)
+        problem = path_problem(src)
+        if problem is not None:
+            what = "missing on disk" if problem == "file not found" else f"not readable ({problem})"
+            raise InputError(f"image {im.name} is registered in sparse/0 but {what}", src)
         camera = full.scaled(resize) if resize > 1 else full
         if use_scaled:
             path = scaled_dir / im.name
@@ -261,7 +270,7 @@ def load_scene(
 
     info: dict = {}
     info_path = root / layout.SCENE_JSON
-    if info_path.is_file():
+    if os.path.lexists(info_path):  # a folder, a named pipe or a broken link there is an error, not "no scene.json"
         info = read_json_object(info_path)
 
     kinds = MASK_KINDS if load_masks is True else (() if load_masks is False else tuple(load_masks))

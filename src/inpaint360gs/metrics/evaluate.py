@@ -28,8 +28,8 @@ render, a render that matches no test view, a render of the wrong size.
 
 from __future__ import annotations
 
-import functools
 import math
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -38,6 +38,7 @@ import torch
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core import layout
 from inpaint360gs.core.layout import IMAGE_SUFFIXES, NO_GROUND_TRUTH
+from inpaint360gs.io import provenance
 from inpaint360gs.io.images import read_image, to_float
 from inpaint360gs.io.scene import Scene, View, load_scene
 from inpaint360gs.metrics.distribution import frechet_distance_features, kernel_inception_distance
@@ -114,15 +115,21 @@ def _read_render(path: Path, view: View) -> torch.Tensor:
     return to_float(img)
 
 
-@functools.lru_cache(maxsize=8)
-def _sha256_cached(path: str, _mtime: int, _size: int) -> str:
-    return sha256_file(path)
-
-
 def _file_info(path: str | Path) -> dict:
-    p = Path(path)
-    st = p.stat()
-    return {"path": str(p), "sha256": _sha256_cached(str(p.resolve()), st.st_mtime_ns, st.st_size)}
+    return {"path": str(path), "sha256": sha256_file(path)}  # hashed once per process and file version
+
+
+_GREY_MODES = ("1", "L", "LA", "I", "I;16", "I;16B", "I;16L", "F")  # PIL modes of single-channel files
+
+
+def _check_colour(path: Path, gt: torch.Tensor, view: View) -> None:
+    """A grayscale render of a colour test view would be scored as grey: refused."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        grey_file = im.mode in _GREY_MODES
+    if grey_file and not bool((gt == gt[..., :1]).all()):
+        raise InputError(f"render is grayscale but test view {view.name} is in colour: renders must be RGB (a grey render would be scored as grey)", path)
 
 
 def _view_batches(images: list[torch.Tensor]) -> list[list[int]]:
@@ -317,6 +324,12 @@ def _no_ground_truth(scene: Scene, renders_dir: Path, nets: tuple) -> dict:
     }
 
 
+def _record(scene: Scene, made: provenance.Record | None, nets: tuple, inception: Path | None) -> dict:
+    """The evaluation's provenance: the scene, the renders' stage output and the model they show."""
+    inputs = {"renders": made.identity if made else None, "model": made.model if made else None}
+    return provenance.make("evaluate", scene, inputs, {"nets": list(nets), "inception": None if inception is None else sha256_file(inception)})
+
+
 def evaluate_renders(
     renders_dir: str | Path,
     scene_dir: str | Path,
@@ -324,11 +337,17 @@ def evaluate_renders(
     nets: Sequence[Net] = ("vgg", "alex"),
     inception_weights: str | Path | None = None,
     device: str = "cpu",
+    resize: int = 1,
 ) -> dict:
     """Metrics of the renders in ``renders_dir`` against the test views of ``scene_dir``.
 
     ``nets`` selects the LPIPS networks (``lpips`` = VGG, ``lpips_alex``); ``fd_vgg16``/``kid_vgg16``
     always use VGG16. ``fid`` needs ``inception_weights`` (or ``INPAINT360GS_INCEPTION_WEIGHTS``).
+    ``resize``: the scene's image downscale factor; the renders must have the test views' size at it
+    (renders made with ``render --resize R`` are scored with ``resize=R``). Renders whose folder
+    records their provenance (``render``'s ``render.json``, an inpainting's ``inpaint.json``) must be
+    of this scene at this ``resize`` (docs/architecture.md, "Provenance chain"). A test view without
+    an unseen mask file, while others have one, is warned about (its masked and ROI values are null).
     See the module docstring for the output layout and the handling of nulls.
     """
     nets = tuple(dict.fromkeys(nets))
@@ -336,10 +355,12 @@ def evaluate_renders(
     if unknown:
         raise InputError(f"unknown LPIPS network {unknown[0]!r} (expected 'vgg' and/or 'alex')", "nets")
     renders_dir, scene_dir = Path(renders_dir), Path(scene_dir)
-    scene: Scene = load_scene(scene_dir, load_masks=["unseen_mask"])
+    scene: Scene = load_scene(scene_dir, resize=resize, load_masks=["unseen_mask"])
+    made = provenance.of_renders(renders_dir)
+    provenance.check_scene(made, scene, "evaluate the renders of this scene")
     views = scene.test_views
     if not views:
-        return _no_ground_truth(scene, renders_dir, nets)
+        return {**_no_ground_truth(scene, renders_dir, nets), "resize": resize, provenance.KEY: _record(scene, made, nets, None)}
     for net in dict.fromkeys((*nets, "vgg")):  # VGG16 features for fd/kid in any case
         small = next((v for v in views if min(v.camera.width, v.camera.height) < MIN_SIDE[net]), None)
         if small is not None:
@@ -353,7 +374,14 @@ def evaluate_renders(
     for v in views:
         renders.append(_read_render(paths[v.name], v))
         gts.append(scene.load_image(v, allow_test=True))
+        _check_colour(paths[v.name], gts[-1], v)
         masks.append(torch.from_numpy(scene.load_mask(v, "unseen_mask")) if scene.has_mask(v, "unseen_mask") else None)
+    lacking = [v for v, m in zip(views, masks) if m is None]
+    if lacking:
+        n = len(views) - len(lacking)
+        warnings.warn(f"{scene_dir / layout.UNSEEN_MASK_DIR}: no unseen mask for {len(lacking)} of {len(views)} test view(s) (first: {lacking[0].name}); "
+                      f"masked_* and roi_* means are over the {n} view(s) with one" if n else
+                      f"{scene_dir / layout.UNSEEN_MASK_DIR}: no unseen masks: masked_* and roi_* metrics and AMCR are null", stacklevel=2)
 
     table = _Table(names, metric_names(nets))
     _pixel_metrics(table, renders, gts, masks)
@@ -370,6 +398,8 @@ def evaluate_renders(
     return {
         "scene": str(scene_dir),
         "renders_dir": str(renders_dir),
+        "resize": resize,
+        provenance.KEY: _record(scene, made, nets, inception),
         "ground_truth": True,
         "num_views": len(names),
         "views": names,

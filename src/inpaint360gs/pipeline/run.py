@@ -21,10 +21,10 @@ from pathlib import Path
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import sha256_file
-from inpaint360gs.core.layout import RunLayout
+from inpaint360gs.core.layout import SCENE_JSON, RunLayout
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.inpaint.stage import InpaintConfig
-from inpaint360gs.io.atomic import write_text
+from inpaint360gs.io.atomic import remove_tree, write_text
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.remove.removal import Click, RemovalConfig, check_clicks
 from inpaint360gs.segment.associate import AssociationConfig
@@ -76,6 +76,13 @@ def _settings(obj) -> object:
     return dataclasses.asdict(obj) if dataclasses.is_dataclass(obj) else obj
 
 
+def no_clicks_reason(scene: Scene) -> str:
+    """Why the scene gives no click to select an object by (for the error asking for --click or --id)."""
+    if not (scene.root / SCENE_JSON).is_file():
+        return f"the scene has no {SCENE_JSON} to take clicks from"
+    return f"{SCENE_JSON} names no clicks"
+
+
 def scene_clicks(scene: Scene) -> list[Click]:
     """The clicks ``scene.json`` names (``clicks``: view, x, y), as a user would give them."""
     clicks = scene.info.get("clicks", [])
@@ -98,7 +105,7 @@ class Runner:
         self.ids = list(ids or [])
         self.clicks = list(clicks) if clicks else ([] if self.ids else scene_clicks(scene))
         if not self.clicks and not self.ids:
-            raise InputError("no object to remove: give --click VIEW:X,Y or --id N (scene.json names no clicks)", scene.root)
+            raise InputError(f"no object to remove: give --click VIEW:X,Y or --id N ({no_clicks_reason(scene)})", scene.root)
         # views and pixels now; what lies under them once the field exists
         check_clicks(scene, self.clicks, "--click" if clicks else scene.root / "scene.json")
         check_run_folder(self.layout.root)
@@ -146,12 +153,35 @@ class Runner:
     def up_to_date(self, stage: str, sig: str) -> bool:
         return self.record.get(stage) == sig and self._outputs(stage).is_file()
 
+    def _folder(self, stage: str) -> Path:
+        lay = self.layout
+        return {"train": lay.gs, "segment": lay.segment, "associate": lay.associate, "distill": lay.distill, "remove": lay.removed, "inpaint": lay.inpainted}[stage]
+
+    def remove_stale(self, sigs: dict[str, str]) -> list[str]:
+        """Remove every stage folder that does not follow from the current settings (its recorded
+        signature differs, or it is not recorded), so that OUT never holds a stale result; returns
+        the stages removed. Kept: a 3DGS folder this run will train into (its checkpoint resumes a
+        matching run, and the trainer discards one that does not match) and one holding ``--model``."""
+        removed = []
+        for stage in STAGES:
+            folder = self._folder(stage)
+            if not folder.exists() or self.up_to_date(stage, sigs[stage]):
+                continue
+            if stage == "train" and (self.model_path is None or self.model_path.resolve().is_relative_to(folder.resolve())):
+                continue
+            remove_tree(folder)
+            removed.append(stage)
+            if self.record.pop(stage, None) is not None:
+                self._save()
+        return removed
+
     # --- the stages -------------------------------------------------------------------------------
     def run(self, until: str = "inpaint") -> list[tuple[str, str]]:
         """Run the stages up to ``until``; returns (stage, "ran" | "up to date") pairs."""
         if until not in STAGES:
             raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", "--until")
         sigs = self.signatures()
+        self.remove_stale(sigs)
         done = []
         for stage in STAGES[: STAGES.index(until) + 1]:
             if stage == "train" and self.model_path is not None:

@@ -62,6 +62,7 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.distill.field import IdentityField
+from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
@@ -199,8 +200,8 @@ def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> 
 
 def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     """The distillation output ``folder`` (:meth:`IdentityField.load`), checked against its
-    ``distill.json`` when there is one: the Gaussian count it records, and the content hash of the
-    scene it was distilled from, which must be ``scene``'s (compared at the same ``--resize``)."""
+    ``distill.json`` when there is one: the Gaussian count it records, and the scene it was
+    distilled from, which must be ``scene`` (content hash and ``--resize``)."""
     from inpaint360gs.distill.field import MODEL_PLY
     from inpaint360gs.distill.run import DISTILL_JSON
 
@@ -213,10 +214,7 @@ def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     n = report.get("num_gaussians")
     if n is not None and n != len(field_.gaussians):
         raise InputError(f"holds {len(field_.gaussians)} Gaussians but {DISTILL_JSON} records {n}: files of two runs?", folder / MODEL_PLY)
-    inputs = report.get("inputs") if isinstance(report.get("inputs"), dict) else {}
-    made_from = inputs.get("scene_content_sha256")
-    if made_from is not None and inputs.get("resize", scene.resize) == scene.resize and made_from != scene.fingerprint():
-        raise InputError(f"distilled from other scene content ({inputs.get('scene', '?')}) than {scene.root}: distill this scene first", path)
+    provenance.check_scene(field_.record, scene, "distill this scene first")  # docs/architecture.md, "Provenance chain"
     return field_
 
 
@@ -473,6 +471,8 @@ def removal_stage(
         "support": support_note,
         "footprints": [fp.to_json() for fp in res.footprints],
         "seconds": round(time.perf_counter() - t0, 2),
+        provenance.KEY: provenance.make("remove", scene, {"distill": field_.record.identity if field_.record else None},
+                                        {"clicks": [str(c) for c in clicks], "objects": targets, "config": asdict(cfg), "backend": backend}),
     }
     with atomic_dir(out, overwrite=overwrite) as tmp:
         write_ply(tmp / "point_cloud.ply", res.kept)
@@ -480,5 +480,6 @@ def removal_stage(
         np.save(tmp / "removed_index.npy", np.flatnonzero(res.removed_mask.numpy()))
         for v in views:
             write_mask(tmp / "masks" / f"{v.stem}.png", masks[v.name])
+        provenance.add_outputs(info, tmp, "point_cloud.ply")
         (tmp / "removal.json").write_text(json.dumps(info, indent=1) + "\n")
     return info

@@ -37,6 +37,7 @@ from pathlib import Path
 import pandas as pd
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import check_readable
 from inpaint360gs.io.atomic import atomic_path, write_text
 from inpaint360gs.report.records import METRICS, load_records, sha256_file
 from inpaint360gs.report.tables import git_commit, provenance_line
@@ -547,12 +548,9 @@ def read_config(path: str | Path | None) -> dict | None:
     import yaml
 
     p = Path(path)
+    check_readable(p, "a config YAML file", missing="config file not found")
     try:
         text = p.read_text()
-    except FileNotFoundError:
-        raise InputError("config file not found", p) from None
-    except IsADirectoryError:
-        raise InputError("is a folder, expected a config YAML file", p) from None
     except UnicodeDecodeError:
         raise InputError("not a text file (expected a config YAML file)", p) from None
     try:

@@ -28,7 +28,8 @@ import re
 from pathlib import Path
 
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.files import sha256_file
+from inpaint360gs.core.files import check_readable, sha256_file
+from inpaint360gs.io import provenance
 
 FORMAT = "inpaint360gs-table-record/1"
 KINDS = ("method", "baseline", "ablation", "sweep")  # sweep: the full method at another L (virtual_views label)
@@ -55,12 +56,9 @@ def _no_constant(name: str):
 def read_json(path: str | Path, what: str) -> object:
     """Parse a JSON file; a missing, unreadable, invalid file or a NaN/Infinity anywhere is an InputError."""
     p = Path(path)
-    if p.is_dir():
-        raise InputError(f"is a folder, expected {what}", p)
+    check_readable(p, what, missing=f"{what} not found")
     try:
         text = p.read_text()
-    except FileNotFoundError:
-        raise InputError(f"{what} not found", p) from None
     except UnicodeDecodeError:
         raise InputError(f"not a text file (expected {what})", p) from None
     try:
@@ -163,12 +161,9 @@ def read_evaluation(path: str | Path) -> dict:
 def read_benchmark(path: str | Path) -> dict:
     """A Snakemake ``benchmark:`` TSV (one row per repeat): mean wall seconds, max RSS (MB), CPU seconds."""
     p = Path(path)
-    if p.is_dir():
-        raise InputError("is a folder, expected a Snakemake benchmark TSV", p)
+    check_readable(p, "a Snakemake benchmark TSV", missing="benchmark file not found")
     try:
         lines = [ln for ln in p.read_text().splitlines() if ln.strip()]
-    except FileNotFoundError:
-        raise InputError("benchmark file not found", p) from None
     except UnicodeDecodeError:
         raise InputError("not a text file (expected a Snakemake benchmark TSV)", p) from None
     if not lines:
@@ -224,19 +219,33 @@ def read_models(paths: list[str | Path]) -> dict:
     files, total = [], 0
     for path in paths:
         p = Path(path)
-        if p.is_dir():
-            raise InputError("is a folder, expected a model PLY file", p)
-        try:
-            with open(p, "rb") as f:
-                magic = f.read(4)
-            size = p.stat().st_size
-        except FileNotFoundError:
-            raise InputError("model file not found", p) from None
+        check_readable(p, "a model PLY file", missing="model file not found")
+        with open(p, "rb") as f:
+            magic = f.read(4)
+        size = p.stat().st_size
         if magic[:3] != b"ply":
             raise InputError("not a PLY file (no 'ply' header)", p)
         files.append({"path": str(p), "bytes": size})
         total += size
     return {"files": files, "bytes": total, "storage_mb": total / 1e6}
+
+
+def check_evaluation_of(evaluation: str | Path, labels: dict[str, str], models: list[dict]) -> None:
+    """The evaluation must be of the labelled scene and, when the record names its model files, of
+    renders of one of them (its provenance record, docs/architecture.md, "Provenance chain");
+    an evaluation without a record is taken as it is."""
+    rec = provenance.read(evaluation, "evaluate")
+    if rec is None:
+        return
+    name = rec.scene.get("name")
+    if name and name != labels["scene"]:
+        raise InputError(f"an evaluation of scene {name!r}, but the record is labelled scene={labels['scene']}: "
+                         f"give the evaluation of {labels['scene']!r} or correct the label", evaluation)  # fmt: skip
+    shas = {m["sha256"] for m in models}
+    if rec.model and shas and rec.model not in shas:
+        given = ", ".join(m["path"] for m in models)
+        raise InputError(f"the evaluated renders show another model (sha256 {provenance.short(rec.model)}) than --model {given}: "
+                         "give the evaluation of this run's renders, or its model", evaluation)  # fmt: skip
 
 
 def make_record(
@@ -270,6 +279,8 @@ def make_record(
     model = read_models(list(models)) if models else None
     if model:
         sources["models"] = [{"path": f["path"], "sha256": sha256_file(f["path"])} for f in model["files"]]
+    if evaluation is not None:
+        check_evaluation_of(evaluation, labels, sources["models"])
     return {
         "format": FORMAT,
         "labels": dict(labels),

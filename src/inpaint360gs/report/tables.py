@@ -16,6 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import check_readable
 from inpaint360gs.io.atomic import atomic_path, write_text
 
 
@@ -42,8 +43,7 @@ def load_metrics(paths: list[str | Path]) -> list[dict]:
     rows, seen = [], {}
     for p in paths:
         p = Path(p)
-        if p.is_dir():
-            raise InputError("is a folder, expected a metrics.json file", p)
+        check_readable(p, "a metrics.json file", missing="metrics file not found")
         try:
             key = p.resolve()
             if key in seen:

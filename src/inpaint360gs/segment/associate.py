@@ -64,6 +64,7 @@ from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
 from inpaint360gs.io.scene import Scene
@@ -428,21 +429,24 @@ def associate_stage(
 ) -> Association:
     """Read the segment stage's output, associate, write ``out``; returns the association.
 
-    The segments must be of this scene: ``segment.json`` records the content hash of the scene
-    they were made from, which must be this one's (at the same ``--resize``)."""
+    The segments must be of this scene and of this model (docs/architecture.md, "Provenance chain"):
+    ``segment.json`` records the scene's content hash, ``--resize`` and the model's sha256."""
     from inpaint360gs.segment.stage import SEGMENT_JSON, read_segments
 
     t0 = time.perf_counter()
     check_output_dir(out, overwrite)  # before any work
-    by_stem = read_segments(segment_dir, scene)
     info_path = Path(segment_dir) / SEGMENT_JSON
+    if not info_path.is_file():
+        raise InputError(f"not a segment stage output (no {SEGMENT_JSON})", segment_dir)
     info = read_json_object(info_path)
     segmenter = info.get("segmenter", "unknown")
-    inputs = info.get("inputs") if isinstance(info.get("inputs"), dict) else {}
-    made_from = inputs.get("scene_content_sha256")
-    if made_from is not None and inputs.get("resize", scene.resize) == scene.resize and made_from != scene.fingerprint():
-        raise InputError(f"the segments were made from other scene content ({inputs.get('scene', '?')}) than {scene.root}: segment this scene first", info_path)
+    made = provenance.read(info_path, "segment")
+    provenance.check_scene(made, scene, "segment this scene first")
+    model_sha = None if model_path is None else provenance.check_model(model_path, scene)
+    provenance.check_link(made, "model", model_sha, model_path, "segment with this model first, or give the model the segments were made with")
+    by_stem = read_segments(segment_dir, scene)
     result = associate({v.name: by_stem[v.stem] for v in scene.train_views}, scene, model, cfg, where=model_path)
-    meta = {**(meta or {}), "segmenter": segmenter, "seconds": round(time.perf_counter() - t0, 2)}
+    meta = {**(meta or {}), "segmenter": segmenter, "seconds": round(time.perf_counter() - t0, 2),
+            provenance.KEY: provenance.make("associate", scene, {"model": model_sha, "segment": made.identity if made else None}, asdict(result.config))}
     write_association(result, scene, out, meta=meta, overwrite=overwrite)
     return result

@@ -19,8 +19,8 @@ import torch
 from tqdm import tqdm
 
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.files import sha256_file
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
 from inpaint360gs.io.scene import Scene
@@ -74,6 +74,8 @@ def segment_scene(
     views = scene.train_views
     t0 = time.perf_counter()
     images = {v.name: scene.load_image(v) for v in views}  # decode every input before the work
+    # a model another stage recorded as made from another scene is refused (docs/architecture.md, "Provenance chain")
+    model_sha = None if model_path is None else provenance.check_model(model_path, scene, "segment with the model trained on this scene")
     if segmenter.uses_model:
         if model is None:
             raise InputError(f"segmenter {segmenter.name} needs the trained model", "MODEL")
@@ -97,13 +99,14 @@ def segment_scene(
             per_view[v.stem] = {"segments": int(len(present)), "covered_fraction": round(float((ids > 0).mean()), 4)}
         inputs = {"scene": str(scene.root), "scene_content_sha256": scene.fingerprint(), "resize": scene.resize}
         if model_path is not None:
-            inputs.update(model=str(model_path), model_sha256=sha256_file(model_path))
+            inputs.update(model=str(model_path), model_sha256=model_sha)
         info = {
             "segmenter": segmenter.name,
             "reads_ground_truth": segmenter.reads_ground_truth,
             "settings": segmenter.settings(),
             "prepared": segmenter.summary(),
             "inputs": inputs,
+            provenance.KEY: provenance.make("segment", scene, {"model": model_sha}, {"segmenter": segmenter.name, "settings": segmenter.settings(), "views": [v.name for v in views]}),
             "model_check_psnr": None if model_psnr is None else round(model_psnr, 2),
             "num_views": len(views),
             "views": per_view,
