@@ -20,7 +20,6 @@ from inpaint360gs.io.images import read_mask
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import load_scene
 from inpaint360gs.remove.removal import (
-    Click,
     RemovalConfig,
     _inlier_points,
     fill_masks,
@@ -28,8 +27,8 @@ from inpaint360gs.remove.removal import (
     object_body,
     remove_objects,
     removal_stage,
-    resolve_clicks,
 )
+from inpaint360gs.remove.select import Click, resolve_clicks, select
 from inpaint360gs.render.api import render
 
 IDS = [0, 3, 7]  # class -> object id (not 0, 1, 2: the mapping is exercised)
@@ -130,8 +129,6 @@ def test_click_reads_column_x_row_y_and_refuses_pixels_outside(blobs):
     field = MapField(id_map)
     assert resolve_clicks(field, scene, [Click(v.name, 40, 10)]) == [5]
     assert resolve_clicks(field, scene, [Click(v.name, w - 1, h - 1)]) == [9]
-    with pytest.raises(InputError, match="background"):
-        resolve_clicks(field, scene, [Click(v.name, 10, 40)])  # transposed: nothing there
     for x, y in ((w, 0), (0, h), (-1, 3), (3, -1), (10**6, 10**6)):
         with pytest.raises(InputError, match=f"outside the {w}x{h} image") as e:
             resolve_clicks(field, scene, [Click(v.name, x, y)])
@@ -145,9 +142,11 @@ def test_click_on_the_background_is_refused(blobs):
     alpha = render(model, v.camera).alpha.detach().numpy()
     floor = np.argwhere((truth == 0) & (alpha > 0.9))[0]  # the floor: a background Gaussian
     empty = np.argwhere(alpha < 1e-3)[0]  # nothing rendered at all
-    for y, x in (floor, empty):
-        with pytest.raises(InputError, match="on the background"):
+    for (y, x), why in ((floor, "on the background"), (empty, "on empty space")):
+        with pytest.raises(InputError, match=why):
             resolve_clicks(field, scene, [Click(v.name, int(x), int(y))])
+    with pytest.raises(InputError, match="on the support surface"):  # growing an object from it: none stands there
+        select(field, scene, [Click(v.name, int(floor[1]), int(floor[0]))])
 
 
 def test_nothing_rendered_is_background_whatever_the_classifier_says_of_it(blobs):
@@ -163,10 +162,32 @@ def test_nothing_rendered_is_background_whatever_the_classifier_says_of_it(blobs
     assert (ids[alpha < 1e-3] == 3).all()  # the raw id map
     assert (biased.render_ids(v.camera, min_alpha=0.5)[0][alpha < 0.5] == 0).all()
     y, x = (int(i) for i in (alpha < 1e-3).nonzero()[0])
-    with pytest.raises(InputError, match="on the background"):
+    with pytest.raises(InputError, match="on empty space"):
         resolve_clicks(biased, scene, [Click(v.name, x, y)])
     x, y = centre_pixel(v.camera, BLOB_CENTRES[7])
     assert resolve_clicks(biased, scene, [Click(v.name, x, y)]) == [7]
+
+
+def test_a_click_on_an_object_the_segmenter_missed_grows_it_in_3d(blobs, tmp_path):
+    """Blob 2 (id 7) labelled background, as when the 2D masks never found it: a click on it selects
+    the Gaussians standing on the floor linked to what the pixel shows (the whole blob, no floor),
+    and the removal takes them."""
+    scene, model, labels, _ = blobs
+    missed = labelled_field(model, torch.where(labels == 2, 0, labels), IDS)
+    v = scene.train_views[0]
+    x, y = centre_pixel(v.camera, BLOB_CENTRES[7])
+    with pytest.raises(InputError, match="on the background"):
+        resolve_clicks(missed, scene, [Click(v.name, x, y)])  # the id map alone
+    (sel,) = select(missed, scene, [Click(v.name, x, y)])
+    assert sel.how == "grown" and sel.object_id is None
+    blob = (labels == 2).numpy()
+    got = sel.gaussians
+    assert (got & blob).sum() / (got | blob).sum() > 0.9 and not (got & (labels == 0).numpy()).any()
+    info = removal_stage(missed, scene, tmp_path / "rem", clicks=[Click(v.name, x, y)], cfg=RemovalConfig(footprint_margin=None))
+    assert info["selected_by"] == {f"{v.name}:{x},{y}": "grown"} and info["objects"] == []
+    removed = np.zeros(len(labels), bool)
+    removed[np.load(tmp_path / "rem" / "removed_index.npy")] = True
+    assert removed[blob].mean() > 0.95 and not removed[(labels == 1).numpy()].any()
 
 
 def test_click_on_an_unknown_or_test_view_is_refused(blobs):

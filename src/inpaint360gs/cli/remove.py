@@ -43,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.atomic import check_output_dir
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.remove.removal import Click, RemovalConfig, check_clicks, load_field, removal_stage
+    from inpaint360gs.remove.removal import RemovalConfig, load_field, removal_stage
+    from inpaint360gs.remove.select import Click, check_clicks
 
     set_threads(args.threads)
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "DISTILL": args.distill})  # --overwrite replaces OUT as a whole

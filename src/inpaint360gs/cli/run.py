@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.gs.config import ORIGINAL_ITERATIONS, DensifyConfig, TrainConfig
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.pipeline.run import RunConfig, Runner
-    from inpaint360gs.remove.removal import Click
+    from inpaint360gs.remove.select import Click
     from inpaint360gs.segment.associate import AssociationConfig
 
     set_threads(args.threads)
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
         distill=DistillConfig(iterations=args.distill_iterations, seed=args.seed, backend=args.backend),
         inpaint=inpaint_config(args, args.seed, args.backend), seed=args.seed, backend=args.backend,
     )  # fmt: skip
-    runner = Runner(scene, args.out, cfg, model=args.model, clicks=clicks, ids=args.id, progress=not args.no_progress)
+    runner = Runner(scene, args.out, cfg, model=args.model, clicks=clicks, ids=args.id, progress=not args.no_progress, announce=True)
     for stage, what in runner.run(args.until):
         print(f"{stage:10s} {what}")
     print(f"{scene.name}: done up to {args.until} -> {args.out}")

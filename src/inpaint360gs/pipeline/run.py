@@ -14,7 +14,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,7 +25,8 @@ from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.inpaint.stage import InpaintConfig
 from inpaint360gs.io.atomic import remove_tree, write_text
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.remove.removal import Click, RemovalConfig, check_clicks
+from inpaint360gs.remove.removal import RemovalConfig
+from inpaint360gs.remove.select import Click, check_clicks
 from inpaint360gs.segment.associate import AssociationConfig
 
 STAGES = ("train", "segment", "associate", "distill", "remove", "inpaint")
@@ -95,7 +95,8 @@ def scene_clicks(scene: Scene) -> list[Click]:
 class Runner:
     """One run of the method on ``scene`` into ``out`` (see the module docstring)."""
 
-    def __init__(self, scene: Scene, out: str | Path, cfg: RunConfig, *, model: str | Path | None = None, clicks: list[Click] | None = None, ids: list[int] | None = None, progress: bool = True):
+    def __init__(self, scene: Scene, out: str | Path, cfg: RunConfig, *, model: str | Path | None = None, clicks: list[Click] | None = None, ids: list[int] | None = None, progress: bool = True,
+                 announce: bool = False):
         self.scene = scene
         self.layout = RunLayout(Path(out))
         self.cfg = cfg
@@ -110,6 +111,7 @@ class Runner:
         check_clicks(scene, self.clicks, "--click" if clicks else scene.root / "scene.json")
         check_run_folder(self.layout.root)
         self.progress = progress
+        self.announce = announce  # say on stdout what each stage does before it starts
         self.record_path = self.layout.root / RUN_JSON
         self.record = self._read_record()
         self.fingerprint = scene.fingerprint()
@@ -191,8 +193,8 @@ class Runner:
                 done.append((stage, "up to date"))
                 continue
             self.record.pop(stage, None)
-            if self.progress:
-                print(f"{stage}: {STAGE_WORK[stage]} ...", file=sys.stderr, flush=True)
+            if self.announce:
+                print(f"{stage}: {STAGE_WORK[stage]} ...", flush=True)
             t0 = time.perf_counter()
             getattr(self, f"_{stage}")()
             self.record[stage] = sigs[stage]

@@ -68,39 +68,8 @@ from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene, View
 from inpaint360gs.metrics import amcr
+from inpaint360gs.remove.select import Click, select, support_heights
 from inpaint360gs.render.api import render
-
-
-@dataclass(frozen=True)
-class Click:
-    """A user's selection: a pixel (column x, row y) in a named view, in the coordinates of the image
-    as it lies in the scene's ``images/`` (at full size, whatever ``--resize`` the run uses)."""
-
-    view: str
-    x: int
-    y: int
-
-    @staticmethod
-    def parse(text: str) -> "Click":
-        """``VIEW:X,Y`` (e.g. ``IMG_0003.png:120,88``)."""
-        try:
-            view, xy = text.rsplit(":", 1)
-            x, y = (int(round(float(s))) for s in xy.split(","))
-            if not view.strip():
-                raise ValueError("no view")
-        except (ValueError, OverflowError):  # OverflowError: an infinite coordinate
-            raise InputError(f"click {text!r} is not VIEW:X,Y (e.g. IMG_0003.png:120,88)", "--click") from None
-        return Click(view, x, y)
-
-    def __str__(self) -> str:
-        return f"{self.view}:{self.x},{self.y}"
-
-    def pixel(self, view: View) -> tuple[int, int]:
-        """(column, row) of the click in ``view``'s camera (the scene's resolution): the full-size
-        pixel's centre scaled by the camera's size over the image's."""
-        cam = view.camera
-        w, h = view.full_size or (cam.width, cam.height)
-        return min(int((self.x + 0.5) * cam.width / w), cam.width - 1), min(int((self.y + 0.5) * cam.height / h), cam.height - 1)
 
 
 FOOTPRINT_TOP = 2.0  # the footprint column reaches this x the object's height: faint Gaussians floating just over an
@@ -164,38 +133,6 @@ class Removal:
     objects: list[int]  # the selected object ids
     counts: dict = field(default_factory=dict)  # per object: by probability, by hull
     footprints: list = field(default_factory=list)  # per object: its core.support.Footprint (step 4), when found
-
-
-def check_clicks(scene: Scene, clicks: list[Click], where: str | Path = "--click") -> list[View]:
-    """The view of each click; :class:`InputError` for an unknown view, an evaluation (``test_``) view
-    or a pixel outside the image (what can be checked before the field exists). ``where``: where
-    the clicks came from, named in the error."""
-    views = []
-    for c in clicks:
-        try:
-            view = scene.view(c.view)
-        except InputError:
-            raise InputError(f"click {c}: the scene has no view {c.view!r}", scene.root) from None
-        if view.is_test:
-            raise InputError(f"click {c}: {view.name} is an evaluation (test_) view; click on a training view", scene.root)
-        w, h = view.full_size or (view.camera.width, view.camera.height)
-        if not (0 <= c.x < w and 0 <= c.y < h):
-            raise InputError(f"click {c} is outside the {w}x{h} image (clicks are in the coordinates of images/)", where)
-        views.append(view)
-    return views
-
-
-def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click]) -> list[int]:
-    """The object id under each click, read off the id map the field renders for the click's view."""
-    ids = []
-    for c, view in zip(clicks, check_clicks(scene, clicks)):
-        id_map, _ = field_.render_ids(view.camera, min_alpha=0.5)  # less than half covered: nothing there
-        x, y = c.pixel(view)
-        oid = int(id_map[y, x])
-        if oid == 0:
-            raise InputError(f"click {c} is on the background (no object there in the rendered id map)", "--click")
-        ids.append(oid)
-    return ids
 
 
 def load_field(folder: str | Path, scene: Scene) -> IdentityField:
@@ -308,24 +245,6 @@ def upright(gaussians: Gaussians, up: np.ndarray) -> np.ndarray:
     return along > np.trace(cov, axis1=1, axis2=2) - along
 
 
-def support_heights(field_: IdentityField, scene: Scene) -> tuple[np.ndarray | None, float, str, np.ndarray | None]:
-    """(height of every Gaussian above the support plane, orbit radius R, note, the plane's unit
-    normal) from the training cameras and the opaque centres, as the geometric segmenter finds them;
-    (None, 0, why, None) without a plane."""
-    from inpaint360gs.segment.cluster3d import ClusterConfig
-    from inpaint360gs.segment.frame import scene_frame
-
-    g = field_.gaussians
-    means = g.means.detach().cpu().double().numpy()
-    cc = ClusterConfig()
-    try:
-        frame = scene_frame([v.camera for v in scene.train_views], means, g.opacities.detach().cpu().numpy(),
-                            min_opacity=cc.plane_min_opacity, tol_frac=cc.plane_tol, tries=cc.plane_tries, max_tilt_deg=cc.plane_max_tilt_deg)  # fmt: skip
-    except InputError as e:
-        return None, 0.0, f"support guard skipped: {e}", None
-    return frame.heights(means), frame.radius, "support plane found", frame.up
-
-
 def remove_objects(
     field_: IdentityField,
     object_ids: list[int],
@@ -334,16 +253,20 @@ def remove_objects(
     heights: np.ndarray | None = None,
     radius: float = 0.0,
     up: np.ndarray | None = None,
+    grown: list[np.ndarray] | None = None,
 ) -> Removal:
     """Remove the objects ``object_ids`` from the field's Gaussians (see the module docstring);
     ``heights`` (N,) above the support plane and the orbit ``radius`` enable ``protect_support``,
-    with the plane's normal ``up`` also ``support_column``."""
+    with the plane's normal ``up`` also ``support_column``. ``grown``: (N,) bool sets of Gaussians
+    selected by a click where the field knows no object (:func:`.select.select`), removed like an
+    object whose step 1 took them."""
     cfg = cfg or RemovalConfig()
+    grown = list(grown or [])
     known = set(field_.object_ids) - {0}
     for oid in object_ids:
         if oid not in known:
             raise InputError(f"unknown object id {oid} (the field knows {sorted(known)})", "--id")
-    if not object_ids:
+    if not object_ids and not grown:
         raise InputError("nothing selected: give at least one --click or --id")
     probs = field_.gaussian_probs()  # (N, Q)
     col = {oid: field_.object_ids.index(oid) for oid in object_ids}
@@ -360,8 +283,9 @@ def remove_objects(
     remove = np.zeros(len(means), dtype=bool)
     counts = {}
     bodies = []  # per object: what steps 1-2 take for it
-    for oid, c in col.items():
-        sel = (probs[:, c] > cfg.threshold).numpy()
+    firsts = {str(oid): (probs[:, c] > cfg.threshold).numpy() for oid, c in col.items()}
+    firsts.update({f"grown {i}": g.copy() for i, g in enumerate(grown)})
+    for key, sel in firsts.items():
         idx = np.flatnonzero(sel)
         sel[idx[~object_body(means[idx], cfg.link, cfg.min_part, cfg.body_margin)]] = False
         hull = np.zeros_like(sel)
@@ -370,7 +294,7 @@ def remove_objects(
             hull = inside_hull(pts, means) & ~sel & ~protected
         remove |= sel | hull
         bodies.append(sel | hull)
-        counts[str(oid)] = {"by_probability": int(sel.sum()), "by_hull": int(hull.sum())}
+        counts[key] = {"by_probability": int(sel.sum()), "by_hull": int(hull.sum())}
     if cfg.support_column is not None and heights is not None and up is not None and radius > 0 and 0 in field_.object_ids and remove.any():
         background = (probs[:, field_.object_ids.index(0)] > 0.5).numpy()
         band = cfg.protect_support * radius if cfg.protect_support is not None else 0.0
@@ -450,11 +374,13 @@ def removal_stage(
     check_output_dir(out, overwrite)  # before any work
     t0 = time.perf_counter()
     clicks = list(clicks or [])
-    targets = resolve_clicks(field_, scene, clicks) + list(ids or [])
+    picked = select(field_, scene, clicks, backend=backend)
+    targets = [p.object_id for p in picked if p.object_id is not None] + list(ids or [])
     targets = list(dict.fromkeys(targets))  # keep order, drop repeats
+    grown = [p.gaussians for p in picked if p.gaussians is not None]
     needs_plane = cfg.protect_support is not None or cfg.support_column is not None or cfg.footprint_margin is not None
     heights, radius, support_note, up = support_heights(field_, scene) if needs_plane else (None, 0.0, "support guard off", None)
-    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up)
+    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up, grown=grown)
     views = scene.train_views
     masks = fill_masks(field_.gaussians, res.removed_mask, views, cfg.mask_share, backend)
     stack = np.stack([masks[v.name] for v in views])
@@ -462,6 +388,7 @@ def removal_stage(
         **(meta or {}),
         "clicks": [str(c) for c in clicks],
         "objects": targets,
+        "selected_by": {str(p.click): p.how for p in picked},
         "removed_gaussians": int(res.removed_mask.sum()),
         "kept_gaussians": len(res.kept),
         "counts": res.counts,
