@@ -524,3 +524,26 @@ def test_blending_takes_the_views_brightness_and_keeps_the_taken_texture():
     img[taken] = (view + ramp)[taken]
     out = blend_into_view(img, taken, taken)
     assert np.abs(out[taken] - view[taken]).mean() < 0.01
+
+
+def test_plane_transfer_carries_an_earlier_views_fill_by_the_plane_homography():
+    """Two views of the plane z = 0.1 with a colour linear in position: the second view's masked
+    pixels take the first view's colours through the plane (bilinear: exact for a linear colour), its
+    depth is the plane's; pixels the first view did not fill, or off the plane, are left."""
+    from inpaint360gs.inpaint.conditioned import plane_transfer
+
+    first, _ = plane_view(np.ones((H, W), bool))
+    cam2 = Camera.look_at((-0.4, -1.8, 1.9), (0.0, 0.1, PLANE_C), (0, 0, 1), 30.0, 33.0, W / 2, H / 2, W, H, name="second")
+    z2, pts2 = plane_depth(cam2)
+    mask = np.zeros((H, W), bool)
+    mask[6:18, 8:24] = True
+    z = z2.copy()
+    z[6:9, 8:24] = np.inf  # rays that do not meet the support here
+    color, depth = np.zeros((H, W, 3), np.float32), np.ones((H, W), np.float32)
+    done = plane_transfer(cam2, z, mask, [(first, plane_depth(first.camera)[0])], color, depth)
+    assert np.array_equal(done, mask & np.isfinite(z))
+    assert np.abs(color[done] - colour_of(pts2)[done]).max() < 2e-3  # bilinear in the image of a colour linear on the plane
+    assert np.allclose(depth[done], z2[done], rtol=1e-6) and (color[~done] == 0).all()
+    # an earlier view that filled nothing there gives nothing
+    empty = InpaintedView(first.camera, first.color, first.depth, np.zeros((H, W), bool), first.valid, first.from_condition)
+    assert not plane_transfer(cam2, z, mask, [(empty, plane_depth(first.camera)[0])], color, depth).any()

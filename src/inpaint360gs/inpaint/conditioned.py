@@ -74,15 +74,20 @@ def inpaint_views(
     backend: str = "auto",
     fills: dict[int, tuple[Callable, Callable]] | None = None,
     blend: bool = True,
+    planes: dict[int, np.ndarray] | None = None,
 ) -> list[InpaintedView]:
     """Inpaint the region ``masks[i]`` of ``edited``'s render at ``cameras[i]``, in order (see the
     module docstring), with the 2D inpainters ``fill_rgb(image, mask)`` and ``fill_depth(depth, mask)``
     (:mod:`.inpainters`); ``fills`` gives view ``i`` its own pair instead (either may be None: the
     default). ``blend``: what a view takes from earlier views is fitted to its own surroundings
-    (:func:`blend_into_view`)."""
+    (:func:`blend_into_view`). ``planes``: view ``i``'s (H, W) depth of a known planar surface (inf
+    where its rays do not meet it): there a view takes the earlier views' fill through the homography
+    the plane induces (:func:`plane_transfer`), exact and as sharp as the earlier image, instead of
+    rendering the cloud of pixel splats."""
     cloud: Gaussians | None = None
     out = []
     fills = fills or {}
+    planes = planes or {}
     for i, (cam, mask) in enumerate(zip(cameras, masks)):
         view_rgb, view_depth = fills.get(i, (None, None))
         o = render(edited, cam, backend=backend)
@@ -91,19 +96,20 @@ def inpaint_views(
         alpha = o.alpha.numpy()
         mask = mask.astype(bool)
         valid = (alpha >= min_alpha) | mask
-        hole = mask.copy()
         cond = np.zeros_like(mask)
-        if condition and cloud is not None and mask.any():
+        if condition and out and mask.any() and i in planes:
+            cond = plane_transfer(cam, planes[i], mask, [(v, planes[j]) for j, v in enumerate(out) if j in planes], color, depth)
+        if condition and cloud is not None and (mask & ~cond).any():
             c = render(cloud, cam, backend=backend)
             a = c.alpha.numpy()
-            cov = a >= min_alpha
-            cond = mask & cov
+            cov = mask & ~cond & (a >= min_alpha)
             # the surface's colour: Σ cαT over a black background divided by alpha, like the depth
-            color[cond] = (c.color.numpy()[cond] / a[cond][:, None]).clip(0, 1)
-            depth[cond] = normalised_depth(c).numpy()[cond]
-            if blend and cond.any():
-                color = blend_into_view(color, cond, mask | ~valid)
-            hole = mask & ~cov
+            color[cov] = (c.color.numpy()[cov] / a[cov][:, None]).clip(0, 1)
+            depth[cov] = normalised_depth(c).numpy()[cov]
+            cond |= cov
+        hole = mask & ~cond
+        if blend and cond.any():
+            color = blend_into_view(color, cond, mask | ~valid)
         # outside the mask, pixels without a surface (holes left by occluders taken out, background the
         # scene never reconstructed) carry no target the 3D stage uses: they are marked invalid and
         # filled first by a cheap diffusion (OpenCV Telea; their depth too), so that the hole's
@@ -122,6 +128,41 @@ def inpaint_views(
             cloud = _cat(cloud, new)
         out.append(InpaintedView(cam, color, depth, mask, valid, cond))
     return out
+
+
+def plane_transfer(camera: Camera, z: np.ndarray, mask: np.ndarray, earlier: list, color: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """Fill ``mask`` pixels lying on a known plane (``z`` finite: their depth on it) from ``earlier``
+    views ((InpaintedView, its plane depth)) in order: a pixel's plane point is projected into an
+    earlier view, and where it lands inside that view's filled region, on the same plane (its pixel's
+    plane depth within 5%), its colour is sampled there (bilinear), its depth is ``z``. Writes into ``color``
+    and ``depth``; returns the pixels filled. Exact for a plane: the mapping between two views of a
+    plane is a homography, and only the earlier image's resampling blurs."""
+    from inpaint360gs.views.unseen import backproject, project
+
+    todo = mask & np.isfinite(z)
+    done = np.zeros_like(mask)
+    if not todo.any():
+        return done
+    rows, cols = np.nonzero(todo)
+    pts = backproject(camera, z[rows, cols], rows, cols)
+    left = np.ones(len(rows), dtype=bool)
+    for v, zv in earlier:
+        if not left.any():
+            break
+        u, w, d = project(v.camera, pts[left])
+        h, wd = v.mask.shape
+        inside = (d > 1e-6) & (u >= 0.5) & (u < wd - 0.5) & (w >= 0.5) & (w < h - 0.5)
+        iu, iw = np.clip(u.astype(np.int64), 0, wd - 1), np.clip(w.astype(np.int64), 0, h - 1)
+        ok = inside & v.mask[iw, iu] & (np.abs(zv[iw, iu] - d) <= 0.05 * d)
+        if not ok.any():
+            continue
+        sample = cv2.remap(v.color, u[ok].astype(np.float32)[None] - 0.5, w[ok].astype(np.float32)[None] - 0.5, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)[0]
+        idx = np.flatnonzero(left)[ok]
+        color[rows[idx], cols[idx]] = sample
+        depth[rows[idx], cols[idx]] = z[rows[idx], cols[idx]]
+        done[rows[idx], cols[idx]] = True
+        left[idx] = False
+    return done
 
 
 def _smooth(img: np.ndarray, where: np.ndarray, sigma: float) -> np.ndarray:

@@ -250,12 +250,13 @@ def inpaint_scene(
 
     # 4. 2D inpainting
     t0 = time.perf_counter()
-    fills = {}
+    fills, planes = {}, {}
     if footprints:  # what the removal emptied is filled on its support: the plane's depth where a ray meets it there
         sup = make_inpainter(cfg.support_inpainter, **opts) if supports else None
         for i, c in enumerate(cameras):
-            fills[i] = (sup.rgb if i < len(supports) else None, _plane_fill(support_depth(c, footprints, cfg.footprint_margin), dep.depth))
-    views = inpaint_views(edited, cameras, masks, rgb.rgb, dep.depth, condition=cfg.condition, backend=cfg.backend, fills=fills)
+            planes[i] = support_depth(c, footprints, cfg.footprint_margin)
+            fills[i] = (sup.rgb if i < len(supports) else None, _plane_fill(planes[i], dep.depth))
+    views = inpaint_views(edited, cameras, masks, rgb.rgb, dep.depth, condition=cfg.condition, backend=cfg.backend, fills=fills, planes=planes)
     consistency = reprojection_error(views)
     t["inpaint_2d_s"] = time.perf_counter() - t0
 
