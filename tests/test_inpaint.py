@@ -547,3 +547,27 @@ def test_plane_transfer_carries_an_earlier_views_fill_by_the_plane_homography():
     # an earlier view that filled nothing there gives nothing
     empty = InpaintedView(first.camera, first.color, first.depth, np.zeros((H, W), bool), first.valid, first.from_condition)
     assert not plane_transfer(cam2, z, mask, [(empty, plane_depth(first.camera)[0])], color, depth).any()
+
+
+def test_with_footprints_only_the_fill_and_the_footprints_surroundings_move(hole_case):
+    """The stage's active rows (footprint_rows): the floor within 0.25 of the footprint's size around
+    it; everything else comes back bit for bit after 3D inpainting, the new Gaussians are refitted."""
+    from inpaint360gs.core.support import Footprint
+    from inpaint360gs.inpaint.stage import footprint_rows, on_supports
+
+    floor, hole, edited, new, views = hole_case
+    square = np.array([[-0.35, -0.35], [0.35, -0.35], [0.35, 0.35], [-0.35, 0.35]])
+    n = np.array([0.0, 0.0, 1.0])
+    fp = Footprint(n, 0.0, square, 0.5)
+    active = footprint_rows(edited, [fp], 0.25)
+    xy = edited.means[:, :2].double().numpy()
+    near = (np.abs(xy) <= 0.35 + 0.25 * 0.7 + 1e-6).all(axis=1)  # the square grown by 0.25 x its size (0.7), mitred
+    assert np.array_equal(active.numpy(), near & (np.abs(edited.means[:, 2].numpy()) < 0.5))
+    assert on_supports(new.means.double().numpy(), [fp], 0.25).all()  # the new Gaussians lie on the support inside it
+    c = RefineConfig(iterations=20, seed=0)
+    final, _ = refine(edited, new, views, c, region=floor.means[hole].double().numpy(), extent=2.0, active=active)
+    static = edited.subset(~active)
+    k = len(static)
+    for p in PARAMS:
+        assert torch.equal(getattr(final, p)[:k], getattr(static, p)), p
+    assert not torch.equal(final.sh0[-len(new):], new.sh0)
