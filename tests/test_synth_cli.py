@@ -94,3 +94,12 @@ def test_missing_out(capsys):
 def test_same_scene_twice_in_one_call_is_written_once(tmp_path):
     assert main(["synth", str(tmp_path), "--scenes", "cone", "cone", *SMALL]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cone"]
+
+
+def test_photos_sfm_cannot_register_is_one_line_and_writes_nothing(tmp_path, capsys):
+    """The realistic family's poses come from pycolmap; at 48x36 it registers almost nothing."""
+    out = tmp_path / "out"
+    assert main(["synth", str(out), "--scenes", "duck-dev1", *SMALL]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "duck-dev1: poses from pycolmap failed" in err and "--poses generator" in err
+    assert not out.exists() or not any(out.iterdir())

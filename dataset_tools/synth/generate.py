@@ -193,7 +193,7 @@ def generate_scene(
             try:
                 rebuild_with_colmap(truth, built, seed, progress)
             except InputError as e:  # it names a file of the temporary truth folder
-                where = "" if e.path is None else f"{Path(e.path).name}: "
+                where = "" if e.path is None or Path(e.path).name == scene.name else f"{Path(e.path).name}: "
                 raise InputError(f"{scene.name}: poses from pycolmap failed: {where}{e.message} (--poses generator gives the true poses)") from None
             for item in built.iterdir():
                 shutil.move(str(item), tmp / item.name)
