@@ -25,6 +25,29 @@ from inpaint360gs.core.errors import InputError
 REALISTIC = sorted(n for n, s in SCENES.items() if s.family == "realistic")
 
 
+def test_culled_casting_finds_the_same_hits():
+    """The realistic scenes cull object primitives by bounding sphere (raycast.World.cast): same hits
+    as testing every primitive, for camera rays and for short occlusion rays alike."""
+    w = World(SCENES["dozer-dev1"])
+    rng = np.random.default_rng(0)
+    o = np.array([0.7, -0.3, 0.4]) + rng.normal(0.0, 0.05, (20000, 3))
+    d = rng.normal(0.0, 0.1, (20000, 3)) - o  # towards the object, scattered
+    t0, i0 = w.cast(o, d, cull=False)
+    t1, i1 = w.cast(o, d, cull=True)
+    assert (i0 != -1).sum() > 10000 and (w.obj_ids[i0] != 0).sum() > 2000
+    np.testing.assert_array_equal(i0, i1)
+    np.testing.assert_allclose(t0, t1, rtol=1e-12)
+    o2 = np.c_[rng.uniform(-0.3, 0.3, (20000, 2)), np.full(20000, MAT_T + 1e-5)]
+    d2 = rng.normal(0.0, 1.0, (20000, 3))
+    d2[:, 2] = np.abs(d2[:, 2])
+    d2 /= np.linalg.norm(d2, axis=1, keepdims=True)
+    for background in (True, False):
+        a = w.cast(o2, d2, tmax=0.2, background=background, cull=False)
+        b = w.cast(o2, d2, tmax=0.2, background=background, cull=True)
+        np.testing.assert_array_equal(a[1], b[1])
+        np.testing.assert_allclose(a[0], b[0], rtol=1e-12)
+
+
 def test_dozer_has_a_dark_underside_a_few_millimetres_above_the_support():
     spec = SCENES["dozer-dev1"]
     w = World(spec)
