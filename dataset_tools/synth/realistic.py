@@ -80,10 +80,12 @@ def table(rng, seed: int) -> Material:
     return Material("grain", _pick(rng, (TABLE_OAK, TABLE_WALNUT, TABLE_ASH)), scale=0.16, detail=0.06, seed=seed)
 
 
-def placemat(colors, half: tuple[float, float], pitch: float, seed: int, n_bands: int, rng) -> Material:
-    """A woven placemat: warp along local x, ``n_bands`` stripes along it, a 12 mm hem."""
+def placemat(colors, half: tuple[float, float], pitch: float, seed: int, n_bands: int, rng, flecks: float = 0.0) -> Material:
+    """A woven placemat: warp along local x, ``n_bands`` stripes along it, a 12 mm hem; ``flecks`` > 0
+    scatters 2-6 mm flecks of darker and lighter yarn (blobs SIFT can match across a regular weave)."""
     bands = tuple((float(c), float(w)) for c, w in zip(rng.uniform(-0.8, 0.8, n_bands) * half[1], rng.uniform(0.006, 0.014, n_bands)))
-    return Material("weave", colors, scale=pitch, detail=0.04, seed=seed, extent=half, border=0.012, bands=bands)
+    return Material("weave", colors, scale=pitch, detail=0.04, seed=seed, extent=half, border=0.012, bands=bands,
+                    dots=flecks, dot_size=0.02)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -142,9 +144,10 @@ def teapot(oid: int, glaze, **kw) -> ObjectSpec:
 
 
 def bread_box(oid: int, paint, **kw) -> ObjectSpec:
-    """A painted bread box ~0.42 x 0.16 x 0.26 m (the backdrop that stays), with a darker lid line."""
-    m = Material("stripes", (paint[0], tuple(c * 0.9 for c in paint[0]), paint[2]), scale=0.05, axis=0, duty=0.9, detail=0.12, seed=221,
-                 dots=0.3, dot_size=0.03, dot_colors=(paint[1], paint[2]))
+    """A printed tin bread box ~0.42 x 0.16 x 0.26 m (the backdrop that stays), with a darker lid line.
+    Its print (patches of the palette, dark and light spots) keeps SfM going in the views it fills."""
+    m = Material("patches", paint, scale=0.04, detail=0.1, seed=221, dots=0.45, dot_size=0.025,
+                 dot_colors=((0.12, 0.10, 0.10), (0.95, 0.93, 0.88)))
     trim = Material("noise", ((0.25, 0.18, 0.12), (0.35, 0.26, 0.18)), scale=0.01, detail=0.1, seed=222)
     prims = (
         Prim("box", (0.21, 0.08, 0.13), m, (0.0, 0.0, 0.13 - SINK)),
@@ -237,8 +240,10 @@ def duck(suite: str, k: int, sparse: bool = False) -> SceneSpec:
     half = (0.5, 0.35)
     cx, cy = _rot(angle, (-half[0] + off, float(rng.uniform(-0.15, 0.15))))
     colors = MATS[int(rng.integers(len(MATS)))]
-    rug = placemat(colors, half, 0.007, seed + 1, int(rng.integers(2, 5)), rng)
-    floor = Material("tiles", ((0.70, 0.68, 0.64), (0.52, 0.55, 0.58), (0.62, 0.56, 0.48), (0.30, 0.29, 0.28)), scale=0.1, detail=0.1, seed=seed)
+    rug = placemat(colors, half, 0.007, seed + 1, int(rng.integers(2, 5)), rng, flecks=0.3)
+    # tiles marked with spots: a plain grid of 10 cm tiles is too repetitive for SfM from 0.3 m
+    floor = Material("tiles", ((0.70, 0.68, 0.64), (0.52, 0.55, 0.58), (0.62, 0.56, 0.48), (0.30, 0.29, 0.28)), scale=0.1, detail=0.1, seed=seed,
+                     dots=0.35, dot_size=0.03)
     bg = room(floor, _pick(rng, (WALLS_WARM, WALLS_COOL, WALLS_GREEN)))
     bg += (Prim("box", (half[0], half[1], 0.5 * MAT_T), rug, (cx, cy, 0.5 * MAT_T), (0.0, 0.0, angle)),)
     obj = rubber_duck(1, position=(0.0, 0.0, MAT_T), yaw=yaw, target=True)
