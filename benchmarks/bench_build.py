@@ -93,7 +93,7 @@ def run_scene(name: str, work: Path, matcher: str, camera_model: str) -> dict:
 
 
 def main() -> None:
-    from dataset_tools.synth import SCENES
+    from dataset_tools.synth.catalogue import BENCHMARK_SCENES  # 'all': the ten classic scenes
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="*", default=["all"], help="scene names or 'all' (default)")
@@ -104,7 +104,7 @@ def main() -> None:
     ap.add_argument("--clean", action="store_true", help="delete cached scenes first")
     args = ap.parse_args()
     if "all" in args.scenes:
-        args.scenes = sorted(SCENES)
+        args.scenes = list(BENCHMARK_SCENES)
     cv2.setNumThreads(2)  # COLMAP runs with 2 threads (SfMConfig.num_threads); this machine has 2 cores
     if args.clean and args.work.exists():
         shutil.rmtree(args.work)

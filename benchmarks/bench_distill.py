@@ -119,9 +119,9 @@ def main() -> int:
     ap.add_argument("--min-weights", type=float, nargs="+", default=[0.001, 0.003, 0.01])
     args = ap.parse_args()
 
-    from dataset_tools.synth import SCENES
+    from dataset_tools.synth.catalogue import BENCHMARK_SCENES  # 'all': the ten classic scenes
 
-    names = sorted(SCENES) if args.scenes == ["all"] else args.scenes
+    names = list(BENCHMARK_SCENES) if args.scenes == ["all"] else args.scenes
     print(f"load average at start: {' '.join(f'{x:.2f}' for x in os.getloadavg())} (shared {os.cpu_count()}-core machine)", flush=True)
     rows, missing = [], []
     for name in names:

@@ -41,9 +41,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def scene_names(spec: list[str]) -> list[str]:
-    from dataset_tools.synth import SCENES
+    from dataset_tools.synth.catalogue import BENCHMARK_SCENES  # 'all': the ten classic scenes
 
-    return sorted(SCENES) if spec == ["all"] else spec
+    return list(BENCHMARK_SCENES) if spec == ["all"] else spec
 
 
 def gt_instance(scene_dir: Path, view) -> np.ndarray:

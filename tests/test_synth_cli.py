@@ -35,6 +35,9 @@ def test_two_runs_give_identical_bytes(tmp_path):
         (["--scenes", "cone", "--width", "64"], "give both --width and --height"),
         (["--scenes", "cone", "--width", "4", "--height", "4"], "--width: must be >= 16"),
         (["--scenes", "cone", "--seed", "-1"], "--seed: must be >= 0"),
+        (["--scenes", "cone", "--suite", "dev"], "--suite: give --scenes or --suite, not both"),
+        (["--suite", "train"], "--suite: invalid choice: 'train'"),
+        (["--scenes", "dozer-dev1", "--poses", "sfm"], "--poses: invalid choice: 'sfm'"),
     ],
 )
 def test_bad_arguments_exit_2_and_write_nothing(tmp_path, capsys, args, message):
@@ -59,9 +62,28 @@ def test_existing_scene_needs_overwrite(tmp_path, capsys):
 
 
 def test_list(capsys):
+    from dataset_tools.synth import SCENES
+    from dataset_tools.synth.catalogue import LOW_UNSEEN_SHARE
+
     assert main(["synth", "--list"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) >= 7 and any(line.startswith("toys") for line in lines)
+    assert len(lines) == len(SCENES) and any(line.startswith("toys") for line in lines)
+    for line in lines:  # each scene's suite, family and poses; the scenes below the unseen minimum marked
+        name, suite, family = line.split()[:3]
+        spec = SCENES[name]
+        assert (suite, family) == (spec.suite, spec.family) and f"poses={spec.poses}" in line
+        assert ("unseen<1%" in line) == (name in LOW_UNSEEN_SHARE)
+
+
+def test_realistic_scene_with_true_poses_and_its_unseen_share(tmp_path, capsys):
+    import json
+
+    assert main(["synth", str(tmp_path), "--scenes", "duck-dev1", "--poses", "generator", *SMALL]) == 0
+    out = capsys.readouterr().out
+    assert "unseen share of the test views: mean" in out
+    meta = json.loads((tmp_path / "duck-dev1" / "scene.json").read_text())
+    assert meta["provenance"]["suite"] == "dev" and "poses" not in meta["provenance"]  # the generator's own model
+    assert (tmp_path / "duck-dev1" / "gt" / "photometric.json").is_file()
 
 
 def test_missing_out(capsys):
@@ -72,3 +94,12 @@ def test_missing_out(capsys):
 def test_same_scene_twice_in_one_call_is_written_once(tmp_path):
     assert main(["synth", str(tmp_path), "--scenes", "cone", "cone", *SMALL]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cone"]
+
+
+def test_photos_sfm_cannot_register_is_one_line_and_writes_nothing(tmp_path, capsys):
+    """The realistic family's poses come from pycolmap; at 48x36 it registers almost nothing."""
+    out = tmp_path / "out"
+    assert main(["synth", str(out), "--scenes", "duck-dev1", *SMALL]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "duck-dev1: poses from pycolmap failed" in err and "--poses generator" in err
+    assert not out.exists() or not any(out.iterdir())

@@ -197,7 +197,7 @@ def test_box_filtered_square_wave_is_exact_average():
         np.testing.assert_allclose(box_square(x, duty, w), ref, atol=2e-4)
 
 
-@pytest.mark.parametrize("kind", ["noise", "patches", "checker", "stripes", "wood", "planks", "tiles", "sky"])
+@pytest.mark.parametrize("kind", ["noise", "patches", "checker", "stripes", "wood", "planks", "tiles", "sky", "weave", "grain"])
 def test_textures_in_range_and_band_limited(kind):
     m = Material(kind, ((0.9, 0.2, 0.1), (0.1, 0.3, 0.9), (0.8, 0.8, 0.2), (0.2, 0.6, 0.2), (0.3, 0.3, 0.3)), scale=0.1)
     rng = np.random.default_rng(0)

@@ -49,7 +49,7 @@ def test_scene_folders_and_method_subsets(tmp_path):
 @pytest.mark.parametrize(
     "bad,named",
     [("reduced=maybe", "reduced"), ("poses=guess", "poses"), ("train_scenes=[nosuchscene]", "nosuchscene"), ("methods=[magic]", "magic"),
-     ("scenes=[./no/such/folder]", "no/such/folder"), ("segmenters=[]", "segmenters")],
+     ("scenes=[./no/such/folder]", "no/such/folder"), ("segmenters=[]", "segmenters"), ("suite=train", "suite")],
 )  # fmt: skip
 def test_bad_config_values_are_refused(tmp_path, bad, named):
     p = _dry_run(tmp_path, bad)
@@ -115,3 +115,26 @@ def test_ablations_run_on_their_scene_subset(tmp_path):
     # full on both scenes, abl_d and abl_a on cone only (abl_a: its own association on cone)
     for rule, n in [("inpaint", 4), ("evaluate", 4), ("associate", 3), ("distill", 3)]:
         assert any(line.split()[:2] == [rule, str(n)] for line in out.splitlines()), (rule, out[-3000:])
+
+
+def test_suites_and_the_realistic_familys_own_poses(tmp_path):
+    """`all` is the ten classic scenes; `suite:` picks a suite; the realistic family's scenes come
+    out of `synth` with poses from pycolmap, so `poses: colmap` rebuilds only the classic ones."""
+    from dataset_tools.synth import suite_scenes
+
+    def count(out, rule):
+        return next((int(line.split()[1]) for line in out.splitlines() if line.split()[:1] == [rule]), 0)
+
+    p = _dry_run(tmp_path, "methods=[full]", "train_scenes=[]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert count(p.stdout + p.stderr, "synth_scene") == 10
+    dev = suite_scenes("dev")
+    p = _dry_run(tmp_path, "suite=dev", "poses=colmap", "methods=[full]", "train_scenes=[]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    assert count(out, "synth_scene") == len(dev) and count(out, "colmap_scene") == 10 and count(out, "inpaint") == len(dev)
+    p = _dry_run(tmp_path, "suite=test", "methods=[full]", "train_scenes=[]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    assert count(out, "synth_scene") == len(suite_scenes("test")) and count(out, "colmap_scene") == 0
+    assert "dozer-test1" in out and "dozer-dev1" not in out

@@ -50,6 +50,9 @@ class SfMConfig:
     cross_pairs: int = 20  # sequential: object-inclusive partners of each object-free image
     max_num_features: int = 8192  # SIFT features per image (COLMAP default)
     max_image_size: int = 3200  # longer side is downscaled to this for extraction (COLMAP GUI default)
+    # registering an image needs this many 2D-3D inliers, and this share of its matches inliers
+    abs_pose_min_num_inliers: int = 30
+    abs_pose_min_inlier_ratio: float = 0.25
     num_threads: int = 2  # this machine has 2 cores
     seed: int = 0  # RANSAC/mapper seeds: bit-identical runs with num_threads=1; with more, ~1e-4 relative jitter
     verbose: bool = False  # show COLMAP's own log
@@ -211,6 +214,8 @@ def run_sfm(
         opts.num_threads = cfg.num_threads
         opts.random_seed = cfg.seed
         opts.mapper.random_seed = cfg.seed
+        opts.mapper.abs_pose_min_num_inliers = cfg.abs_pose_min_num_inliers
+        opts.mapper.abs_pose_min_inlier_ratio = cfg.abs_pose_min_inlier_ratio
         opts.triangulation.random_seed = cfg.seed
         sparse_dir = work_dir / "sparse"
         sparse_dir.mkdir(exist_ok=True)

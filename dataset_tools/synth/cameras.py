@@ -116,8 +116,15 @@ def look_at(eye: np.ndarray, target: np.ndarray, up=(0.0, 0.0, 1.0)) -> tuple[np
 
 
 def orbit_geometry(spec: SceneSpec, width: int, height: int) -> tuple[np.ndarray, float]:
-    """Look-at target and orbit radius (explicit in the spec, or from the objects' bounding sphere)."""
-    centre, rad = spec.objects_bounds()
+    """Look-at target and orbit radius (explicit in the spec, or from the bounding sphere of the
+    objects, or of those the orbit's ``frame`` names)."""
+    if spec.orbit.frame:
+        bs = [o.bounds() for o in spec.objects if o.id in spec.orbit.frame]
+        cs = np.asarray([c for c, _ in bs])
+        centre = 0.5 * (cs.min(0) + cs.max(0))
+        rad = float(max(np.linalg.norm(c - centre) + r for c, r in bs))
+    else:
+        centre, rad = spec.objects_bounds()
     target = np.asarray(spec.orbit.target, dtype=np.float64) if spec.orbit.target is not None else centre
     if spec.orbit.radius is not None:
         return target, float(spec.orbit.radius)

@@ -9,57 +9,22 @@ Units are metres; the floor is z = 0 and objects sit 2 mm into it, so no surface
 The generator's seed changes only texture noise and small camera jitter, never the geometry.
 Textures carry blob-like detail (knots, spots, veins) because at 128x96 SIFT finds too few features
 on smooth patterns for joint SfM of the captures to register every view.
+
+These ten are the ``classic`` family (the committed tables; ``all`` on the command line). The
+``realistic`` family (``realistic.py``) adds scenes with real photos' effects. Every scene belongs to
+a suite (docs/architecture.md, "Development and test scenes"): ``dev`` (the classic ten and the
+realistic dev layouts: the code may be tuned on them) or ``test`` (realistic layouts from other
+seeds, never looked at while tuning).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from dataset_tools.synth.spec import ObjectSpec, Orbit, Prim, SceneSpec
+from dataset_tools.synth.parts import SINK, WALLS_COOL, WALLS_GREEN, WALLS_WARM, outdoors, room, segment  # noqa: F401 (shared with realistic.py)
+from dataset_tools.synth.spec import SUITES, ObjectSpec, Orbit, Prim, SceneSpec
 from dataset_tools.synth.textures import Material
 
-SINK = 0.002  # objects stand this far into the floor (no coplanar surfaces, no slivers of light)
-
-
-# ----------------------------------------------------------------------------------------------
-# helpers
-
-
-def segment(shape: str, r: float, p0, p1, material: Material) -> Prim:
-    """A cylinder/capsule of radius ``r`` whose axis runs from ``p0`` to ``p1`` (object coordinates)."""
-    p0, p1 = np.asarray(p0, dtype=np.float64), np.asarray(p1, dtype=np.float64)
-    v = p1 - p0
-    L = float(np.linalg.norm(v))
-    v = v / L
-    ry = np.degrees(np.arctan2(np.hypot(v[0], v[1]), v[2]))  # tilt from +z
-    rz = np.degrees(np.arctan2(v[1], v[0]))  # then turn about +z (R = Rz Ry)
-    centre = tuple(float(x) for x in 0.5 * (p0 + p1))
-    return Prim(shape, (r, 0.5 * L), material, centre, (0.0, float(ry), float(rz)))
-
-
-def room(floor: Material, walls: Material, half: float = 4.0, height: float = 3.0) -> tuple[Prim, ...]:
-    """A closed room: textured walls + ceiling (inside of a box) and a floor rectangle at z = 0."""
-    return (
-        Prim("box", (half, half, 0.5 * height + 0.05), walls, (0.0, 0.0, 0.5 * height - 0.05)),
-        Prim("rect", (half + 0.01, half + 0.01), floor, (0.0, 0.0, 0.0)),
-    )
-
-
-def outdoors(ground: Material, sky: Material, radius: float = 45.0, drop: float = 5.0) -> tuple[Prim, ...]:
-    """A sky dome (sphere centred ``drop`` below the ground) and a ground disc reaching just past it (no gap)."""
-    rim = np.sqrt(radius**2 - drop**2)
-    return (
-        Prim("ellipsoid", (radius, radius, radius), sky, (0.0, 0.0, -drop)),
-        Prim("disc", (1.02 * rim,), ground, (0.0, 0.0, 0.0)),
-    )
-
-
-# ----------------------------------------------------------------------------------------------
-# surroundings
-
-WALLS_WARM = Material("patches", ((0.78, 0.72, 0.62), (0.45, 0.55, 0.68), (0.70, 0.42, 0.35), (0.52, 0.62, 0.45), (0.85, 0.82, 0.75)), scale=0.55, detail=0.18, seed=11, dots=0.35, dot_size=0.5)
-WALLS_COOL = Material("patches", ((0.62, 0.68, 0.75), (0.80, 0.76, 0.66), (0.38, 0.45, 0.58), (0.72, 0.55, 0.62), (0.50, 0.60, 0.55)), scale=0.5, detail=0.18, seed=12, dots=0.35, dot_size=0.5)
-WALLS_GREEN = Material("patches", ((0.55, 0.66, 0.55), (0.82, 0.80, 0.70), (0.62, 0.50, 0.42), (0.42, 0.50, 0.62)), scale=0.6, detail=0.2, seed=13, dots=0.35, dot_size=0.5)
 FLOOR_PLANKS = Material("planks", ((0.55, 0.40, 0.27), (0.72, 0.56, 0.38), (0.22, 0.15, 0.10)), scale=0.12, detail=0.08, seed=21)
 FLOOR_TILES = Material("tiles", ((0.70, 0.68, 0.64), (0.52, 0.55, 0.58), (0.62, 0.56, 0.48), (0.30, 0.29, 0.28)), scale=0.25, detail=0.1, seed=22)
 FLOOR_CARPET = Material("noise", ((0.42, 0.36, 0.52), (0.58, 0.50, 0.64), (0.30, 0.44, 0.50)), scale=0.08, detail=0.2, seed=23,
@@ -333,7 +298,36 @@ def _build() -> dict[str, SceneSpec]:
     return {spec.name: spec for spec in s}
 
 
-SCENES: dict[str, SceneSpec] = _build()
+def _catalogue() -> dict[str, SceneSpec]:
+    from dataset_tools.synth.realistic import realistic_scenes
+
+    out = _build()
+    for spec in realistic_scenes():
+        if spec.name in out:
+            raise ValueError(f"two catalogue scenes named {spec.name!r}")
+        out[spec.name] = spec
+    return out
+
+
+SCENES: dict[str, SceneSpec] = _catalogue()
+# ``all``: the ten scenes of the committed tables (what `all` meant before the realistic family)
+BENCHMARK_SCENES: tuple[str, ...] = tuple(sorted(n for n, s in SCENES.items() if s.family == "classic"))
+
+
+# Scenes whose unseen share (visibility.unseen_shares: mean over the test views of the share of
+# pixels under the unseen mask; full size, seed 0) is below visibility.MIN_UNSEEN_SHARE: their
+# masked and ROI scores rest on few pixels (bear 0.85 %, toys 0.68 %, garden 0.55 %, fruits 0.028 %,
+# stool 0.016 %; README, "The synthetic benchmark"). Every realistic scene is above it.
+LOW_UNSEEN_SHARE: tuple[str, ...] = ("bear", "fruits", "garden", "stool", "toys")
+
+
+def suite_scenes(suite: str) -> list[str]:
+    """Names of the scenes of ``suite`` (dev | test), sorted."""
+    from inpaint360gs.core.errors import InputError
+
+    if suite not in SUITES:
+        raise InputError(f"unknown suite {suite!r} (known: {', '.join(SUITES)})")
+    return sorted(n for n, s in SCENES.items() if s.suite == suite)
 
 
 def scene_spec(name: str) -> SceneSpec:

@@ -27,8 +27,11 @@ class SparsePoints:
     uv: np.ndarray  # (V, P, 2) projections (meaningful where vis)
 
 
-def sample_points(scene, renders: dict, n_points: int, seed: int) -> SparsePoints:
-    """Sample ~``n_points`` pixels evenly over the object-inclusive views and build their tracks."""
+def sample_points(scene, renders: dict, n_points: int, seed: int, images: dict | None = None) -> SparsePoints:
+    """Sample ~``n_points`` pixels evenly over the object-inclusive views and build their tracks.
+
+    Colours come from ``images`` (name -> the written 8-bit image) when given, else from the renders.
+    """
     views = scene.inclusive_views
     rng = np.random.default_rng([int(seed), 0x5EED])
     per_view = int(np.ceil(n_points / max(1, len(views))))
@@ -38,7 +41,7 @@ def sample_points(scene, renders: dict, n_points: int, seed: int) -> SparsePoint
         n_pix = v.camera.width * v.camera.height
         pick = np.sort(rng.choice(n_pix, size=min(per_view, n_pix), replace=False))
         xyz.append(r.points.reshape(-1, 3)[pick])
-        rgb.append(r.rgb8().reshape(-1, 3)[pick])
+        rgb.append((r.rgb8() if images is None else images[v.name]).reshape(-1, 3)[pick])
     xyz = np.concatenate(xyz)
     rgb = np.concatenate(rgb)
     vis = visibility_matrix(scene.world_full, views, xyz)

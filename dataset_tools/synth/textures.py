@@ -30,6 +30,7 @@ class Material:
     different, ``unlit`` makes the surface self-luminous (sky). ``dots`` > 0 scatters round spots
     (chance per cell of size ``dot_size`` metres) in dark and light shades of the palette: blob-like,
     high-contrast features that SIFT finds reliably at low resolution (flowers in grass, marks on walls).
+    ``extent``, ``border`` and ``bands`` shape a woven mat (:func:`tex_weave`).
     """
 
     kind: str
@@ -43,6 +44,11 @@ class Material:
     dots: float = 0.0
     dot_size: float = 0.2
     dot_colors: tuple[Color, ...] = ()  # empty: dark and light shades of ``colors``
+    # woven mats (``weave``): the mat's half extents (local x, y; metres), the width of its hem
+    # along every edge (0: none), and stripes of colour 2 across local y as (centre, half width)
+    extent: tuple[float, float] = (0.0, 0.0)
+    border: float = 0.0
+    bands: tuple[tuple[float, float], ...] = ()
 
 
 def smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
@@ -204,6 +210,86 @@ def tex_sky(p, fp, m: Material, seed):
     return _mix(sky, foliage, trees)
 
 
+def _thread_profile(frac: np.ndarray, fade: np.ndarray) -> np.ndarray:
+    """Brightness across a round thread (``frac`` in [0, 1) across it), faded to its mean 2/pi as it blurs."""
+    mean = 2.0 / np.pi
+    return mean + fade * (np.sin(np.pi * frac) - mean)
+
+
+def _inside(dist: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """Box-filtered indicator of ``dist > 0`` (signed distance to an edge, metres) over footprint ``fp``."""
+    return np.clip(dist / np.maximum(fp, 1e-9) + 0.5, 0.0, 1.0)
+
+
+def tex_weave(p, fp, m: Material, seed):
+    """A plain-woven mat in its local x/y: warp threads along x (colour 0), weft threads along y (colour 1).
+
+    Threads have pitch ``scale``; in a plain weave the warp lies on top on the cells where
+    ``floor(x/scale) + floor(y/scale)`` is even, so the surface shows a checker of short thread
+    segments, each shaded across its width like a round thread and toned per thread (mixed yarns).
+    Warp threads inside a ``band`` (centre, half width along y) take colour 2: stripes along the mat.
+    Within ``border`` of the mat's edges (``extent``: its half extents) a hem of colour 3 with ribs
+    along the edge. Detail finer than the footprint fades to its mean, as everywhere.
+    """
+    S = m.scale
+    c = [np.asarray(col, dtype=np.float64) for col in m.colors]
+    u, v = p[:, 0] / S, p[:, 1] / S
+    w = np.maximum(fp / S, 0.02)
+    fade = 1.0 - smoothstep(0.25, 0.6, w)
+    iu, iv = np.floor(u), np.floor(v)
+    # share of the footprint where the warp is on top: the checker of period 2 cells, box-filtered
+    warp_top = 0.5 + 0.5 * (1.0 - 2.0 * box_square(0.5 * u, 0.5, 0.5 * w)) * (1.0 - 2.0 * box_square(0.5 * v, 0.5, 0.5 * w))
+    zero = np.zeros_like(iu)
+    tone_warp = 0.8 + 0.4 * cell_random(np.stack([zero, iv, zero + 1], -1).astype(np.int64), seed)
+    tone_weft = 0.8 + 0.4 * cell_random(np.stack([iu, zero, zero + 2], -1).astype(np.int64), seed)
+    warp_col = np.broadcast_to(c[0], (len(p), 3))
+    if len(c) > 2 and m.bands:
+        inband = np.zeros(len(p))
+        for centre, half in m.bands:
+            inband = np.maximum(inband, _inside(half - np.abs(p[:, 1] - centre), fp))
+        warp_col = _mix(warp_col, np.broadcast_to(c[2], warp_col.shape), inband)
+    mean = 2.0 / np.pi
+    prof_u, prof_v = _thread_profile(u - iu, fade), _thread_profile(v - iv, fade)
+    warp = warp_col * ((1.0 + fade * (tone_warp - 1.0)) * prof_v / mean)[:, None]
+    weft = c[1][None, :] * ((1.0 + fade * (tone_weft - 1.0)) * prof_u / mean)[:, None]
+    out = _mix(weft, warp, warp_top)
+    ex, ey = m.extent
+    if m.border > 0 and ex > m.border and ey > m.border and len(c) > 3:
+        edge = np.minimum(ex - np.abs(p[:, 0]), ey - np.abs(p[:, 1]))  # distance to the mat's outline
+        rib = 0.25 * m.border
+        ribs = 1.0 + 0.12 * (1.0 - smoothstep(0.25, 0.6, fp / rib)) * np.sin(2.0 * np.pi * edge / rib)
+        out = _mix(c[3][None, :] * ribs[:, None], out, _inside(edge - m.border, fp))
+    return out
+
+
+def tex_grain(p, fp, m: Material, seed):
+    """Table top of wide boards along local x (width ``scale``) with wood grain: per-board tone, growth
+    rings cut by the board's face (long lines that swing into arches), fine dark streaks, rare knots,
+    thin dark seams. Colours: light wood, dark wood, seam."""
+    W = m.scale
+    c0, c1 = _col(m.colors[0]), _col(m.colors[1])
+    y = p[:, 1] / W
+    j = np.floor(y)
+    zero = np.zeros_like(j)
+    tone = cell_random(np.stack([zero, j, zero + 5], -1).astype(np.int64), seed)
+    fade = 1.0 - smoothstep(0.25, 0.6, fp / W)  # boards narrower than a few footprints blend
+    base = _mix(c0, c1, 0.25 + 0.3 * fade * (tone - 0.5))
+    # rings: distance to a per-board pith line that wanders along x; 7 rings per board width
+    pith = cell_random(np.stack([zero, j, zero + 6], -1).astype(np.int64), seed) - 0.5
+    wander = fbm(p * np.array([1.0 / (2.5 * W), 1.0 / (2.0 * W), 1.0 / W]) + 3.7 * j[:, None], fp / (2.5 * W), seed + 1, octaves=3) - 0.5
+    r = np.abs(y - j - 0.5 - 0.5 * pith + 1.2 * wander) * 7.0
+    ring_fade = 1.0 - smoothstep(0.15, 0.35, fp / W * 7.0)
+    late = np.clip(ring_fade * (0.5 + 0.5 * np.cos(2.0 * np.pi * r)), 0.0, 1.0) ** 3  # thin dark latewood
+    streak = fbm(p * np.array([1.0 / (3.0 * W), 25.0 / W, 25.0 / W]) + 1.3 * j[:, None], fp * 25.0 / W, seed + 2, octaves=2)
+    dark = 0.6 * late + 0.4 * smoothstep(0.55, 0.8, streak) * fade
+    out = _mix(base, np.broadcast_to(c1 * 0.8, base.shape), np.clip(dark, 0.0, 1.0))
+    knots = smoothstep(0.8, 0.83, fbm(p * np.array([0.7 / W, 3.0 / W, 3.0 / W]), fp * 3.0 / W, seed + 3, octaves=2))
+    out = out * (1.0 - 0.5 * knots)[:, None]
+    seam = box_square(y - 0.5 * 0.012, 1.0 - 0.012, np.maximum(fp / W, 0.004))
+    gap = _col(m.colors[2]) if len(m.colors) > 2 else c1 * 0.4
+    return _mix(np.broadcast_to(gap, out.shape), out, seam)
+
+
 TEXTURES = {
     "noise": tex_noise,
     "patches": tex_patches,
@@ -213,6 +299,8 @@ TEXTURES = {
     "planks": tex_planks,
     "tiles": tex_tiles,
     "sky": tex_sky,
+    "weave": tex_weave,
+    "grain": tex_grain,
 }
 
 

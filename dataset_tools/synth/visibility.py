@@ -89,3 +89,42 @@ def seen_by_object_inclusive_views(scene: "str | Path | object", points: np.ndar
 
     sc = as_scene(scene)
     return seen_by_views(sc.world_full, sc.inclusive_views, points, tol)
+
+
+# The least unseen share (mean over a scene's test views of the share of pixels under the unseen
+# mask) for a scene to enter a masked or ROI average: below it those scores rest on a handful of
+# pixels (README, "The synthetic benchmark").
+MIN_UNSEEN_SHARE = 0.01
+
+
+def unseen_shares(scene_dir: str | Path) -> dict[str, float]:
+    """Share of each test view's pixels under its unseen mask, read from ``scene_dir/unseen_mask/``."""
+    from inpaint360gs.io.images import read_binary_mask
+
+    folder = Path(scene_dir) / "unseen_mask"
+    if not folder.is_dir():
+        from inpaint360gs.core.errors import InputError
+
+        raise InputError("no unseen_mask/ folder", folder)
+    return {p.stem: float(read_binary_mask(p).mean()) for p in sorted(folder.glob("*.png"))}
+
+
+def estimate_unseen_shares(scene, width: int = 64, height: int = 48) -> dict[str, float]:
+    """The unseen shares of ``scene`` (a :class:`SynthScene`) with its cameras at ``width`` x ``height``.
+
+    The masks' rule (:func:`unseen_mask`) at the pixel centres of a small image: the share is a
+    ratio of areas, so a small image estimates the full-size one to within its sampling error
+    (one pixel of 64x48 is 0.03 % of the image) at a fraction of the cost; nothing is shaded.
+    """
+    from dataset_tools.synth.cameras import View, intrinsics
+
+    K = intrinsics(width, height)
+    out = {}
+    for v in scene.test_views:
+        small = View.at(v.name, v.R, v.t, K, width, height, True)
+        jj, ii = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5)
+        d = small.rays(jj.ravel(), ii.ravel())
+        t, _ = scene.world_free.cast(small.center, d)
+        pts = small.center[None, :] + t[:, None] * d
+        out[v.stem] = float((unseen_mask(scene, small, pts) > 0).mean())
+    return out

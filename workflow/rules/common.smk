@@ -24,14 +24,31 @@ def _is_folder(entry):
 
 
 def _expand(entries):
-    return _synthetic_names() if entries == ["all"] else list(entries)
+    """`[all]`: the ten scenes of the committed tables (README, "The synthetic benchmark"); other
+    catalogue scenes are named, or chosen by suite (`suite:`)."""
+    from dataset_tools.synth.catalogue import BENCHMARK_SCENES
+
+    return list(BENCHMARK_SCENES) if entries == ["all"] else list(entries)
+
+
+def _synthetic_poses(name):
+    """Where a catalogue scene's poses come from by default (the realistic family: pycolmap)."""
+    from dataset_tools.synth import scene_spec
+
+    return scene_spec(name).poses
 
 
 # `scenes:` entries are synthetic scene names (generated under data_dir) or scene folders (the
 # released Inpaint360GS layout, a scene built from one's own photos, an imported scene): a folder's
 # scene name is its last path component.
 SCENE_DIRS = {}
-for _entry in _expand(config["scenes"]):
+if config.get("suite"):  # every scene of a suite instead of `scenes:` (docs/architecture.md, "Development and test scenes")
+    from dataset_tools.synth.catalogue import suite_scenes
+
+    _entries = suite_scenes(config["suite"])
+else:
+    _entries = _expand(config["scenes"])
+for _entry in _entries:
     _name = os.path.basename(os.path.normpath(_entry)) if _is_folder(_entry) else _entry
     if _name in SCENE_DIRS:
         raise WorkflowError(f"config: two scenes are named {_name!r}")
@@ -95,7 +112,7 @@ def scene_dir(scene):
     rebuild (config `poses`)."""
     if SCENE_DIRS.get(scene) is not None:
         return SCENE_DIRS[scene]
-    if config["poses"] == "colmap":
+    if config["poses"] == "colmap" and _synthetic_poses(scene) != "colmap":  # else `synth` already ran pycolmap
         return f"{DATA}_colmap/{scene}"
     return f"{DATA}/{scene}"
 
