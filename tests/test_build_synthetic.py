@@ -248,25 +248,26 @@ def test_too_few_registered_photos_stop_the_build_naming_them(built, tmp_path, c
 
 
 def test_working_size_sfm_gives_full_size_cameras_and_the_same_poses(built, tmp_path):
-    """SfM on copies at 3/4 size (192x144): the camera is for the 256x192 photos (focal as the
-    generator's), the scene keeps full-size images, and the poses agree with the full-size build's up
-    to a similarity and with the generator's."""
+    """SfM on copies at 230/256 (230x172, the height rounded): the camera is for the 256x192 photos
+    (focal as the generator's, principal point at their centre), the scene keeps full-size images, and
+    the poses agree with the full-size build's up to a similarity and with the generator's."""
     from dataset_tools.capture.colmap import SfMConfig
     from dataset_tools.capture.posecheck import pose_accuracy, reconstruction_poses
 
     truth, cap, full_out, full_report = built
     out = tmp_path / "scene"
-    report = build_dataset(cap, out, BuildConfig(sfm=SfMConfig(sfm_max_size=192), progress=False))
+    report = build_dataset(cap, out, BuildConfig(sfm=SfMConfig(sfm_max_size=230), progress=False))
     reg = report.registration
-    assert reg["sfm_size"] == [192, 144] and full_report.registration["sfm_size"] == [256, 192]
+    s = 230 / 256
+    assert reg["sfm_size"] == [230, 172] and full_report.registration["sfm_size"] == [256, 192]
     assert reg["registered"] == full_report.registration["registered"]
     cam = reg["camera"]  # the SfM camera, before undistortion
     assert cam["model"] == "SIMPLE_RADIAL" and (cam["width"], cam["height"]) == (256, 192)
     f_true = json.loads((truth / "gt" / "cameras.json").read_text())["fx"]
-    assert abs(cam["params"][0] / f_true - 1) < 0.01, (cam["params"], f_true)  # not 3/4 of it
-    assert cam["params"][1:3] == [128.0, 96.0]
-    # observations mapped back too: the error in full-size pixels is the working size's / 0.75
-    assert abs(reg["mean_reprojection_error_px"] - reg["sfm_reprojection_error_px"] / 0.75) < 1e-6
+    assert abs(cam["params"][0] / f_true - 1) < 0.01, (cam["params"], f_true)  # not 230/256 of it
+    assert np.allclose(cam["params"][1:3], [128.0, 96.0], rtol=0, atol=1e-9), cam["params"]  # not 172 / 2 / s
+    # observations mapped back too: the error in full-size pixels is the working size's / s
+    assert abs(reg["mean_reprojection_error_px"] - reg["sfm_reprojection_error_px"] / s) < 1e-6
     assert reg["mean_reprojection_error_px"] < 1.0
     rec = read_model(out / "sparse" / "0")
     (pin,) = rec.cameras.values()

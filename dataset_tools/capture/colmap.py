@@ -271,6 +271,14 @@ def run_sfm(
                     if len(cams) != 1:
                         raise InputError(f"expected one shared camera, COLMAP created {len(cams)}", image_dir)
                     reader.existing_camera_id = cams[0].camera_id
+                    if scale < 1.0 and not cfg.camera_params:
+                        # COLMAP starts (and keeps) the principal point at the image centre; the copy's
+                        # size is rounded, so its centre is up to half a pixel off the photo's
+                        cam = cams[0]
+                        params = np.array(cam.params, dtype=float)
+                        params[list(cam.principal_point_idxs())] = [full_size[0] * scale / 2, full_size[1] * scale / 2]
+                        cam.params = params
+                        db.update_camera(cam)
             progress("features", min(i + chunk, len(names)), len(names))
         with contextlib.closing(pycolmap.Database.open(db_path)) as db:
             if db.num_cameras() != 1 or db.num_images() != len(names):
