@@ -113,7 +113,7 @@ def run_photos(photos: Path, sizes: list[int], work: Path, repeat: int, seed: in
         return r.ru_utime + r.ru_stime
 
     stages = ("resize_s", "features_s", "matching_s", "mapping_s", "undistort_s", "write_s")
-    print(f"{photos} ({'affine-covariant' if affine else 'plain'} SIFT)")
+    print(f"{photos.resolve().parent.name}/{photos.name} ({'affine-covariant' if affine else 'plain'} SIFT)")
     print(f"{'max size':>8} {'SfM size':>10} {'reg':>7} {'points':>6} {'px full':>7} {'px SfM':>6} "
           + " ".join(f"{s[:-2]:>9}" for s in stages) + f" {'total s':>7} {'CPU s':>6} {'load':>5} {'Δctr%':>6} {'Δrot°':>6}"
           "  not registered")

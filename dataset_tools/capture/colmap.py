@@ -49,9 +49,10 @@ ProgressFn = Callable[[str, int, int], None]  # (stage, done, total)
 # exhaustive matching the square of the features per photo, so the size sets the time; too small
 # and SIFT finds too few features to link photos taken far apart. Measured on 25 real photos of a
 # walk-around (1558x1039, 2 cores, affine-covariant SIFT): every photo registers at 600, 800 and
-# 1000 px, while SfM CPU time is 26 / 66 / 101 s; 800 keeps a step of margin above the smallest
-# size that registered all, at 2/3 of the time of 1000 (numbers: dataset_tools/capture/README.md).
-# Its poses agree with a full-size reconstruction's to < 1 % of the camera spread and < 0.5°.
+# 1000 px (18 of 25 at 400), while the whole build takes 41 / 84 / 122 CPU seconds; 800 keeps a step
+# of margin above the smallest size that registered all, at 2/3 of the time of 1000. Its poses
+# agree with those at full size to 0.5 % of the camera spread and 0.3° (after a similarity
+# alignment; results/benchmarks/build_photos.txt).
 SFM_MAX_SIZE = 800
 
 
