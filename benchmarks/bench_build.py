@@ -14,6 +14,11 @@ against the generator's truth:
 
 Usage: python benchmarks/bench_build.py [--scenes cone toys ...] [--matcher auto] [--json out.json]
 Generated scenes are cached under --work (default /tmp/inpaint360gs_bench_build).
+
+Real photos (no ground truth, so no pose or leak scores): ``--photos DIR [--sfm-max-size 1000 0 ...]``
+builds DIR once per working size (``build --sfm-max-size``; 0 = full size) and prints registration,
+points, reprojection error, where the time went and the CPU seconds, with the load average before
+each run (timings mean little on a busy machine).
 """
 
 from __future__ import annotations
@@ -92,6 +97,61 @@ def run_scene(name: str, work: Path, matcher: str, camera_model: str) -> dict:
     }
 
 
+def run_photos(photos: Path, sizes: list[int], work: Path, repeat: int, seed: int, json_path: Path | None,
+               matcher: str = "auto", camera_model: str = "SIMPLE_RADIAL", affine: bool = True) -> None:
+    """Build a folder of real photos at each working size; print one row per run."""
+    import os
+    import resource
+
+    from dataset_tools.capture.colmap import SfMConfig
+    from dataset_tools.capture.pipeline import BuildConfig, build_dataset
+    from dataset_tools.capture.posecheck import pose_accuracy, reconstruction_poses
+    from inpaint360gs.io.colmap import read_model
+
+    def cpu_s() -> float:
+        r = resource.getrusage(resource.RUSAGE_SELF)
+        return r.ru_utime + r.ru_stime
+
+    stages = ("resize_s", "features_s", "matching_s", "mapping_s", "undistort_s", "write_s")
+    print(f"{photos.resolve().parent.name}/{photos.name} ({'affine-covariant' if affine else 'plain'} SIFT)")
+    print(f"{'max size':>8} {'SfM size':>10} {'reg':>7} {'points':>6} {'px full':>7} {'px SfM':>6} "
+          + " ".join(f"{s[:-2]:>9}" for s in stages) + f" {'total s':>7} {'CPU s':>6} {'load':>5} {'Δctr%':>6} {'Δrot°':>6}"
+          "  not registered")
+    rows = []
+    first = None  # poses of the first run: the others are compared with them
+    for size in sizes:
+        for k in range(repeat):
+            load = os.getloadavg()[0]
+            c0 = cpu_s()
+            report = build_dataset(photos, work / f"photos_{size}", BuildConfig(
+                sfm=SfMConfig(sfm_max_size=size, seed=seed + k, matcher=matcher, camera_model=camera_model,
+                              estimate_affine_shape=affine), min_registered=0.0, overwrite=True, progress=False))
+            cpu = cpu_s() - c0
+            poses = reconstruction_poses(read_model(work / f"photos_{size}" / "sparse" / "0"))
+            first = first or poses
+            agree = pose_accuracy(poses, first) if len(set(poses) & set(first)) >= 3 else None
+            reg, t = report.registration, report.timings
+            row = {"sfm_max_size": size, "seed": seed + k, "sfm_size": reg["sfm_size"], "registered": reg["registered"],
+                   "total": reg["total"], "unregistered": sorted(reg["unregistered"]), "points_sfm": report.points["sfm"],
+                   "points": report.points["final"], "reproj_px": reg["mean_reprojection_error_px"],
+                   "reproj_sfm_px": reg["sfm_reprojection_error_px"], "timings": t, "cpu_s": cpu, "load1": load,
+                   "vs_first": agree.to_dict() if agree else None}
+            rows.append(row)
+            print(f"{size or 'full':>8} {'x'.join(map(str, reg['sfm_size'])):>10} {reg['registered']:>3}/{reg['total']:<3} "
+                  f"{report.points['sfm']:6d} {row['reproj_px']:7.3f} {row['reproj_sfm_px']:6.3f} "
+                  + " ".join(f"{t.get(s, 0.0):9.1f}" for s in stages)
+                  + f" {t['total_s']:7.1f} {cpu:6.1f} {load:5.2f} "
+                  + (f"{agree.center_err_max_pct:6.2f} {agree.rot_err_max_deg:6.2f}" if agree else f"{'-':>6} {'-':>6}")
+                  + f"  {' '.join(row['unregistered']) or '-'}", flush=True)
+    print("columns: points = SfM points (before leak removal); px full / px SfM = mean reprojection error in "
+          "full-size pixels / in pixels of the working size; stage columns and total in wall seconds; CPU s = "
+          "process CPU seconds (all threads); load = 1-min load average before the run; Δctr% / Δrot° = largest "
+          "camera-centre (% of the camera spread) and rotation difference from the first run's poses after a "
+          "similarity alignment")
+    if json_path:
+        json_path.write_text(json.dumps(rows, indent=2) + "\n")
+
+
 def main() -> None:
     from dataset_tools.synth.catalogue import BENCHMARK_SCENES  # 'all': the ten classic scenes
 
@@ -102,7 +162,21 @@ def main() -> None:
     ap.add_argument("--work", type=Path, default=Path("/tmp/inpaint360gs_bench_build"))
     ap.add_argument("--json", type=Path, default=None)
     ap.add_argument("--clean", action="store_true", help="delete cached scenes first")
+    ap.add_argument("--photos", type=Path, default=None, help="a folder of real photos (build's layouts) instead of the synthetic scenes")
+    ap.add_argument("--sfm-max-size", type=int, nargs="+", default=None, metavar="PX",
+                    help="--photos: working sizes to build at (default: build's default; 0 = full size)")
+    ap.add_argument("--repeat", type=int, default=1, help="--photos: runs per size (seeds seed, seed+1, ...)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--no-affine-shape", action="store_true", help="--photos: plain SIFT (build --no-affine-shape)")
     args = ap.parse_args()
+    if args.photos is not None:
+        from dataset_tools.capture.colmap import SFM_MAX_SIZE
+
+        cv2.setNumThreads(2)
+        args.work.mkdir(parents=True, exist_ok=True)
+        run_photos(args.photos, args.sfm_max_size or [SFM_MAX_SIZE], args.work, args.repeat, args.seed, args.json,
+                   args.matcher, args.camera_model, not args.no_affine_shape)
+        return
     if "all" in args.scenes:
         args.scenes = list(BENCHMARK_SCENES)
     cv2.setNumThreads(2)  # COLMAP runs with 2 threads (SfMConfig.num_threads); this machine has 2 cores

@@ -120,3 +120,81 @@ def test_pose_accuracy_reports_a_known_rotation_error_and_missing_views():
     assert abs(acc.rot_err_max_deg - 0.8) < 1e-9 and acc.worst_rotation == "IMG_005.png"
     assert acc.center_err_max_pct < 1e-9
     assert abs(rotation_angle_deg(dR, np.eye(3)) - 0.8) < 1e-12
+
+
+def _blob(width: int, height: int, cx: float, cy: float, sigma: float = 6.0) -> np.ndarray:
+    """A grey Gaussian blob centred at (cx, cy) in COLMAP's pixel convention (pixel centres at +0.5)."""
+    yy, xx = np.mgrid[0:height, 0:width] + 0.5
+    return np.exp(-((xx - cx) ** 2 + (yy - cy) ** 2) / (2 * sigma**2))
+
+
+def _centroid(img: np.ndarray) -> tuple[float, float]:
+    yy, xx = np.mgrid[0 : img.shape[0], 0 : img.shape[1]] + 0.5
+    return float((img * xx).sum() / img.sum()), float((img * yy).sum() / img.sum())
+
+
+@pytest.mark.parametrize("scale", [0.5, 0.37, 0.8])
+def test_working_copy_maps_points_by_exactly_the_scale_on_both_axes(tmp_path, scale):
+    """A point at x in the photo is at scale * x in the SfM copy, whatever the rounding of the copy's size."""
+    from PIL import Image
+
+    from dataset_tools.capture.colmap import write_working_copy
+
+    W, H = 301, 203
+    for cx, cy in [(40.3, 30.7), (260.2, 180.9), (150.5, 101.5)]:
+        src = tmp_path / "photo.png"
+        Image.fromarray((_blob(W, H, cx, cy) * 255).round().astype(np.uint8)).save(src)
+        w, h = write_working_copy(src, tmp_path / "copy.png", scale)
+        small = np.asarray(Image.open(tmp_path / "copy.png"), float)
+        assert small.shape == (h, w) == (round(H * scale), round(W * scale))
+        mx, my = _centroid(small)
+        assert abs(mx / scale - cx) < 0.05 and abs(my / scale - cy) < 0.05, (mx / scale, my / scale)
+
+
+def test_working_copy_keeps_format_and_exif_and_reads_16_bit(tmp_path):
+    from PIL import Image
+
+    from dataset_tools.capture.colmap import write_working_copy
+
+    exif = Image.Exif()
+    exif[0x010F] = "TestMake"  # Make
+    exif[0x920A] = 4.5  # FocalLength (mm): COLMAP's focal-length prior
+    rgb = np.random.default_rng(0).integers(0, 256, (60, 80, 3), dtype=np.uint8)
+    Image.fromarray(rgb).save(tmp_path / "a.jpg", exif=exif)
+    assert write_working_copy(tmp_path / "a.jpg", tmp_path / "a_small.jpg", 0.5) == (40, 30)
+    with Image.open(tmp_path / "a_small.jpg") as im:
+        assert im.format == "JPEG" and im.mode == "RGB" and im.size == (40, 30)
+        assert im.getexif()[0x010F] == "TestMake"
+    deep = np.tile(np.repeat(np.array([0, 257 * 100, 65535], np.uint16), [20, 30, 30]), (60, 1))  # 16-bit grey
+    Image.fromarray(deep).save(tmp_path / "d.png")
+    write_working_copy(tmp_path / "d.png", tmp_path / "d_small.png", 0.5)
+    with Image.open(tmp_path / "d_small.png") as im:
+        small = np.asarray(im)
+    assert small.dtype == np.uint8 and small.shape == (30, 40)
+    assert list(small[0, [0, 15, 39]]) == [0, 100, 255]  # 65535 -> 255, as an 8-bit reader maps it
+
+
+def test_reconstruction_from_copies_is_mapped_back_to_the_full_size():
+    """SfM on copies shrunk by s: dividing focal, principal point and observations by s gives the full-size
+    model, with the same poses and points and reprojection errors in full-size pixels."""
+    from dataset_tools.capture.colmap import rescale_reconstruction
+
+    full = sb.box_reconstruction(sb.box_scene())
+    s = 0.37
+    small = sb.box_reconstruction(sb.box_scene())  # made into what SfM on the copies gives
+    for cam in small.cameras.values():
+        cam.params = np.array(cam.params) * s  # PINHOLE: fx, fy, cx, cy
+        cam.width, cam.height = round(cam.width * s), round(cam.height * s)
+    for image in small.images.values():
+        for p in image.points2D:
+            p.xy = p.xy * s + 0.2  # 0.2 px of error at the working size
+    small.update_point_3d_errors()
+    assert abs(small.compute_mean_reprojection_error() - 0.2 * np.sqrt(2)) < 1e-6
+    rescale_reconstruction(small, s, 160, 120)
+    for cid, cam in small.cameras.items():
+        assert (cam.width, cam.height) == (160, 120)
+        np.testing.assert_allclose(cam.params, full.cameras[cid].params, rtol=1e-12)
+    for iid, image in small.images.items():
+        np.testing.assert_allclose(image.cam_from_world().matrix(), full.image(iid).cam_from_world().matrix())
+        np.testing.assert_allclose([p.xy for p in image.points2D], [p.xy + 0.2 / s for p in full.image(iid).points2D])
+    assert abs(small.compute_mean_reprojection_error() - 0.2 * np.sqrt(2) / s) < 1e-6  # now in full-size pixels

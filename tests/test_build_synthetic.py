@@ -215,3 +215,64 @@ def test_photos_with_the_object_only_build_a_scene_without_ground_truth(built, t
     assert method_main(["evaluate", str(renders), str(out), str(tmp_path / "m.json")]) == 0
     assert NO_GROUND_TRUTH in capsys.readouterr().out
     assert json.loads((tmp_path / "m.json").read_text())["mean"]["psnr"] is None
+
+
+def test_too_few_registered_photos_stop_the_build_naming_them(built, tmp_path, capsys):
+    """Two noise photos among 12 real ones: 12/14 < 90 % registered is refused with one line naming the
+    two; a lower --min-registered keeps the model and reports them as skipped."""
+    from dataset_tools.capture.posecheck import reconstruction_poses
+
+    _, cap, _, _ = built
+    root = tmp_path / "cap"
+    (root / "with_objects").mkdir(parents=True)
+    for p in sorted((cap / "with_objects").glob("IMG_0*.png"))[:12]:  # a 135° arc of the orbit
+        (root / "with_objects" / p.name).write_bytes(p.read_bytes())
+    rng = np.random.default_rng(7)
+    noise = ["IMG_5000.png", "IMG_5001.png"]  # unrelated pictures: nothing to match
+    for n in noise:
+        cv2.imwrite(str(root / "with_objects" / n), rng.integers(0, 256, (192, 256, 3), dtype=np.uint8))
+    out = tmp_path / "scene"
+    for flags in ([], ["--require-all-registered"]):
+        assert dataset_main(["build", str(root), str(out), "--no-progress", *flags]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1, err
+        line = err[0]
+        assert "only 12 of 14 photos registered" in line and "could not place" in line, line
+        assert all(f"with_objects/{n}" in line for n in noise) and "IMG_0000" not in line, line
+        assert ("--require-all-registered needs 14" if flags else "--min-registered 0.9 needs 13") in line, line
+        assert not out.exists() and not [p for p in tmp_path.iterdir() if p.name.startswith(".scene")]
+    assert dataset_main(["build", str(root), str(out), "--no-progress", "--min-registered", "0.85"]) == 0
+    text = capsys.readouterr().out
+    assert "registered 12/14" in text and all(f"not registered (skipped): {root / 'with_objects' / n}" in text for n in noise)
+    assert sorted(reconstruction_poses(read_model(out / "sparse" / "0"))) == sorted(p.name for p in (cap / "with_objects").glob("IMG_0*.png"))[:12]
+
+
+def test_working_size_sfm_gives_full_size_cameras_and_the_same_poses(built, tmp_path):
+    """SfM on copies at 230/256 (230x172, the height rounded): the camera is for the 256x192 photos
+    (focal as the generator's, principal point at their centre), the scene keeps full-size images, and
+    the poses agree with the full-size build's up to a similarity and with the generator's."""
+    from dataset_tools.capture.colmap import SfMConfig
+    from dataset_tools.capture.posecheck import pose_accuracy, reconstruction_poses
+
+    truth, cap, full_out, full_report = built
+    out = tmp_path / "scene"
+    report = build_dataset(cap, out, BuildConfig(sfm=SfMConfig(sfm_max_size=230), progress=False))
+    reg = report.registration
+    s = 230 / 256
+    assert reg["sfm_size"] == [230, 172] and full_report.registration["sfm_size"] == [256, 192]
+    assert reg["registered"] == full_report.registration["registered"]
+    cam = reg["camera"]  # the SfM camera, before undistortion
+    assert cam["model"] == "SIMPLE_RADIAL" and (cam["width"], cam["height"]) == (256, 192)
+    f_true = json.loads((truth / "gt" / "cameras.json").read_text())["fx"]
+    assert abs(cam["params"][0] / f_true - 1) < 0.01, (cam["params"], f_true)  # not 230/256 of it
+    assert np.allclose(cam["params"][1:3], [128.0, 96.0], rtol=0, atol=1e-9), cam["params"]  # not 172 / 2 / s
+    # observations mapped back too: the error in full-size pixels is the working size's / s
+    assert abs(reg["mean_reprojection_error_px"] - reg["sfm_reprojection_error_px"] / s) < 1e-6
+    assert reg["mean_reprojection_error_px"] < 1.0
+    rec = read_model(out / "sparse" / "0")
+    (pin,) = rec.cameras.values()
+    assert abs(pin.width - 256) <= 4 and abs(pin.height - 192) <= 4  # undistorted full-size photos
+    assert cv2.imread(str(out / "images" / "IMG_0000.png")).shape[:2] == (pin.height, pin.width)
+    agree = pose_accuracy(reconstruction_poses(rec), reconstruction_poses(read_model(full_out / "sparse" / "0")), orbit_radius=None)
+    assert agree.matched == reg["registered"] and agree.center_err_max_pct <= 1.0 and agree.rot_err_max_deg <= 0.5, agree
+    assert score_build(out, truth).poses.passes(), score_build(out, truth).poses

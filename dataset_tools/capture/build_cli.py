@@ -13,9 +13,9 @@ import argparse
 from dataclasses import fields
 
 from dataset_tools.capture.captures import CaptureConfig
-from dataset_tools.capture.colmap import SUPPORTED_MODELS, SfMConfig
+from dataset_tools.capture.colmap import SFM_MAX_SIZE, SUPPORTED_MODELS, SfMConfig
 from dataset_tools.capture.pipeline import BuildConfig, build_dataset
-from inpaint360gs.cli.common import check_apart, existing_dir, nonneg_int, number, output_dir, positive_int
+from inpaint360gs.cli.common import check_apart, existing_dir, fraction, nonneg_int, number, output_dir, positive_int
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -49,8 +49,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--remove-unseen-points", action="store_true",
                    help="also delete sparse points that an object-free view observes inside its unseen mask")
     p.add_argument("--skip-unreadable", action="store_true", help="skip corrupt photos (reported) instead of failing")
-    p.add_argument("--require-all-registered", action="store_true",
-                   help="fail when a photo cannot be registered (default: skip it and report)")
+    reg = p.add_mutually_exclusive_group()
+    reg.add_argument("--min-registered", type=fraction, default=0.9, metavar="FRACTION",
+                     help="fail, naming the photos SfM could not place, when fewer than this share of all photos "
+                          "register (default 0.9); photos left out of a model that passes are skipped and reported")
+    reg.add_argument("--allow-partial", dest="min_registered", action="store_const", const=0.0,
+                     help="keep the model however few photos register (--min-registered 0)")
+    reg.add_argument("--require-all-registered", dest="min_registered", action="store_const", const=1.0,
+                     help="fail when any photo cannot be registered (--min-registered 1)")
+    p.add_argument("--sfm-max-size", dest="sfm_max_size", type=nonneg_int, default=SFM_MAX_SIZE, metavar="PX",
+                   help=f"working size of SfM (default {SFM_MAX_SIZE}; 0: full size): features and matching run on "
+                        "copies whose longest side is PX pixels (never enlarged), the cameras are mapped back to the "
+                        "full-size photos, which the scene keeps")
+    p.add_argument("--no-affine-shape", dest="estimate_affine_shape", action="store_false",
+                   help="plain SIFT (oriented disks) instead of affine-covariant SIFT: faster features, fewer matches "
+                        "between photos taken far apart")
     p.add_argument("--max-features", dest="max_num_features", type=positive_int, default=8192, metavar="N",
                    help="SIFT features per image (8192)")
     p.add_argument("--threads", dest="num_threads", type=positive_int, default=2, metavar="N", help="COLMAP threads (2)")

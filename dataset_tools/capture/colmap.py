@@ -5,6 +5,10 @@ scene jointly with COLMAP, every image sharing one set of intrinsics, and undist
 model. This module runs that with pycolmap (SIFT extraction, matching, incremental mapping,
 undistortion); it does not decide what goes into the scene folder (see ``pipeline.py``).
 
+SfM runs at a working size (``SfMConfig.sfm_max_size``, see ``SFM_MAX_SIZE``): on copies of the photos
+shrunk by one factor on both axes, whose camera and 2D observations are then mapped back to the
+full-size photos (``rescale_reconstruction``); poses and points do not depend on the image size.
+
 Matching (``SfMConfig.matcher``):
 
 * ``exhaustive``: every pair; best for small captures (cost grows with N²: ~15 s for 64 images of
@@ -26,8 +30,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pycolmap
+from PIL import Image
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.colmap import PINHOLE_MODELS, colmap_log
@@ -36,6 +42,18 @@ from inpaint360gs.io.colmap import PINHOLE_MODELS, colmap_log
 SUPPORTED_MODELS = PINHOLE_MODELS + ("SIMPLE_RADIAL", "RADIAL", "OPENCV", "FULL_OPENCV")
 
 ProgressFn = Callable[[str, int, int], None]  # (stage, done, total)
+
+# Working size of SfM (``SfMConfig.sfm_max_size``): features, matching and mapping run on copies
+# whose longest side is this many pixels; the poses and intrinsics are then mapped back to the
+# full-size photos, which the scene keeps. Feature extraction costs about the number of pixels and
+# exhaustive matching the square of the features per photo, so the size sets the time; too small
+# and SIFT finds too few features to link photos taken far apart. Measured on 25 real photos of a
+# walk-around (1558x1039, 2 cores, affine-covariant SIFT): every photo registers at 600, 800 and
+# 1000 px (18 of 25 at 400), while the whole build takes 41 / 84 / 122 CPU seconds; 800 keeps a step
+# of margin above the smallest size that registered all, at 2/3 of the time of 1000. Its poses
+# agree with those at full size to 0.5 % of the camera spread and 0.3° (after a similarity
+# alignment; results/benchmarks/build_photos.txt).
+SFM_MAX_SIZE = 800
 
 
 @dataclass
@@ -49,10 +67,14 @@ class SfMConfig:
     overlap: int = 10  # sequential: neighbours matched on each side within a sequence
     cross_pairs: int = 20  # sequential: object-inclusive partners of each object-free image
     max_num_features: int = 8192  # SIFT features per image (COLMAP default)
-    max_image_size: int = 3200  # longer side is downscaled to this for extraction (COLMAP GUI default)
     # registering an image needs this many 2D-3D inliers, and this share of its matches inliers
     abs_pose_min_num_inliers: int = 30
     abs_pose_min_inlier_ratio: float = 0.25
+    # Affine-covariant SIFT (oriented ellipses instead of disks; COLMAP's option for hard, wide-baseline
+    # sets): neighbouring photos of a walk-around see surfaces (table tops, floors) under quite
+    # different slants, which distorts a disk-shaped patch. Not upright SIFT: photos may be rotated.
+    estimate_affine_shape: bool = True
+    sfm_max_size: int = SFM_MAX_SIZE  # working size: longest side of the copies SfM runs on (0: full size)
     num_threads: int = 2  # this machine has 2 cores
     seed: int = 0  # RANSAC/mapper seeds: bit-identical runs with num_threads=1; with more, ~1e-4 relative jitter
     verbose: bool = False  # show COLMAP's own log
@@ -95,6 +117,9 @@ class SfMResult:
     model_sizes: list[int]  # registered images of every model COLMAP produced, largest first
     matcher: str  # the strategy actually used
     num_pairs: int
+    sfm_size: tuple[int, int]  # (width, height) of the images SfM ran on (the working size)
+    scale: float  # sfm_size / the photos' size; the reconstruction is already mapped back to full size
+    working_reprojection_error_px: float  # mean reprojection error in pixels of the working size
     timings: dict[str, float] = field(default_factory=dict)
 
 
@@ -128,6 +153,58 @@ def _pair_list(names: Sequence[str], free: set[str], cfg: SfMConfig) -> tuple[li
     return sorted(pairs), strategy
 
 
+def working_scale(width: int, height: int, max_size: int) -> float:
+    """Scale factor of the SfM copies: their longest side becomes ``max_size`` (never enlarged; 0 = full size)."""
+    longest = max(width, height)
+    return 1.0 if max_size <= 0 or longest <= max_size else max_size / longest
+
+
+# formats whose files can carry EXIF (COLMAP reads a focal-length prior from it)
+_EXIF_FORMATS = {"JPEG", "PNG", "TIFF", "WEBP"}
+
+
+def write_working_copy(src: Path, dst: Path, scale: float) -> tuple[int, int]:
+    """Write ``src`` shrunk by ``scale`` to ``dst`` (same format and name; EXIF kept); returns (w, h).
+
+    The pixels keep their stored order (no EXIF rotation, as COLMAP reads the original). The map is
+    exactly isotropic: OpenCV resizes with the given factor for both axes, so a point at ``x`` (COLMAP's
+    convention, pixel centres at +0.5) in the photo is at ``scale * x`` in the copy, whatever the
+    rounding of the copy's size. Area averaging: no aliasing for SIFT.
+    """
+    with Image.open(src) as im:
+        fmt, exif = im.format, im.info.get("exif")
+        if im.mode.startswith("I"):  # 16-bit grey: 65535 -> 255, as an 8-bit reader maps it
+            arr = np.clip(np.asarray(im, np.float64) / 257.0, 0, 255).round().astype(np.uint8)
+        else:
+            arr = np.asarray(im if im.mode in ("L", "RGB") else im.convert("RGB"))
+    fmt = "JPEG" if fmt == "MPO" else fmt  # a camera's multi-picture JPEG: its first picture, as COLMAP reads it
+    small = cv2.resize(arr, (0, 0), fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+    kwargs: dict = {"quality": 95} if fmt == "JPEG" else {"compress_level": 1} if fmt == "PNG" else {}
+    if exif and fmt in _EXIF_FORMATS:
+        kwargs["exif"] = exif
+    Image.fromarray(small).save(dst, format=fmt, **kwargs)
+    return small.shape[1], small.shape[0]
+
+
+def rescale_reconstruction(rec: pycolmap.Reconstruction, scale: float, width: int, height: int) -> None:
+    """Map a reconstruction made on copies shrunk by ``scale`` back to the ``width`` x ``height`` photos.
+
+    Poses and 3D points do not change with the image size; focal lengths, principal points and the 2D
+    observations are divided by ``scale`` (exact for copies from :func:`write_working_copy`). Distortion
+    parameters act on normalised coordinates and stay as they are.
+    """
+    for cam in rec.cameras.values():
+        params = np.array(cam.params, dtype=float)
+        idx = list(cam.focal_length_idxs()) + list(cam.principal_point_idxs())
+        params[idx] /= scale
+        cam.width, cam.height = width, height
+        cam.params = params
+    for image in rec.images.values():
+        for p in image.points2D:
+            p.xy = p.xy / scale
+    rec.update_point_3d_errors()  # the stored per-point errors were in pixels of the copies
+
+
 def run_sfm(
     image_dir: Path,
     names: Sequence[str],
@@ -147,22 +224,45 @@ def run_sfm(
     names = list(names)
     timings: dict[str, float] = {}
     pycolmap.set_random_seed(cfg.seed)
+
+    # --- working-size copies (SfMConfig.sfm_max_size); the photos stay as they are
+    t0 = time.perf_counter()
+    with Image.open(image_dir / names[0]) as im:
+        full_size = im.size
+    scale = working_scale(*full_size, cfg.sfm_max_size)
+    sfm_size = full_size
+    sfm_dir = image_dir
+    if scale < 1.0:
+        sfm_dir = work_dir / "sfm_images"
+        sfm_dir.mkdir(exist_ok=True)
+        stage = "resize to {}x{}".format(*(round(v * scale) for v in full_size))  # the stage names the working size
+        progress(stage, 0, len(names))
+        for i, name in enumerate(names):
+            sfm_size = write_working_copy(image_dir / name, sfm_dir / name, scale)
+            progress(stage, i + 1, len(names))
+        timings["resize_s"] = time.perf_counter() - t0
+
     with colmap_log(cfg.verbose):
         # --- features: chunked so that progress can be shown; chunks after the first reuse the camera
         t0 = time.perf_counter()
         reader = pycolmap.ImageReaderOptions()
         reader.camera_model = cfg.camera_model
-        if cfg.camera_params:
-            reader.camera_params = cfg.camera_params
+        if cfg.camera_params:  # given for the full-size photos
+            params = np.array(parse_camera_params(cfg.camera_model, cfg.camera_params))
+            probe = pycolmap.Camera(model=cfg.camera_model, width=1, height=1)
+            params[list(probe.focal_length_idxs()) + list(probe.principal_point_idxs())] *= scale
+            reader.camera_params = ",".join(repr(float(v)) for v in params)
         extraction = pycolmap.FeatureExtractionOptions()
         extraction.num_threads = cfg.num_threads
-        extraction.max_image_size = cfg.max_image_size
+        extraction.max_image_size = -1  # the copies are already at the working size
         extraction.sift.max_num_features = cfg.max_num_features
+        extraction.sift.estimate_affine_shape = cfg.estimate_affine_shape
         chunk = 8
+        progress("features", 0, len(names))  # every stage opens its bar before its first (slow) step
         for i in range(0, len(names), chunk):
             pycolmap.extract_features(
                 db_path,
-                image_dir,
+                sfm_dir,
                 image_names=names[i : i + chunk],
                 camera_mode=pycolmap.CameraMode.SINGLE,
                 reader_options=reader,
@@ -175,6 +275,14 @@ def run_sfm(
                     if len(cams) != 1:
                         raise InputError(f"expected one shared camera, COLMAP created {len(cams)}", image_dir)
                     reader.existing_camera_id = cams[0].camera_id
+                    if scale < 1.0 and not cfg.camera_params:
+                        # COLMAP starts (and keeps) the principal point at the image centre; the copy's
+                        # size is rounded, so its centre is up to half a pixel off the photo's
+                        cam = cams[0]
+                        params = np.array(cam.params, dtype=float)
+                        params[list(cam.principal_point_idxs())] = [full_size[0] * scale / 2, full_size[1] * scale / 2]
+                        cam.params = params
+                        db.update_camera(cam)
             progress("features", min(i + chunk, len(names)), len(names))
         with contextlib.closing(pycolmap.Database.open(db_path)) as db:
             if db.num_cameras() != 1 or db.num_images() != len(names):
@@ -192,8 +300,9 @@ def run_sfm(
         matching.num_threads = cfg.num_threads
         verification = pycolmap.TwoViewGeometryOptions()
         verification.ransac.random_seed = cfg.seed
-        block = 256
+        block = max(32, -(-len(pairs) // 50))  # progress about every 2 %, at most 50 calls' overhead
         pair_file = work_dir / "pairs.txt"
+        progress("matching", 0, len(pairs))
         for i in range(0, len(pairs), block):
             pair_file.write_text("".join(f"{a} {b}\n" for a, b in pairs[i : i + block]))
             pairing = pycolmap.ImportedPairingOptions()
@@ -220,13 +329,14 @@ def run_sfm(
         sparse_dir = work_dir / "sparse"
         sparse_dir.mkdir(exist_ok=True)
         registered = [0]
+        progress("mapping", 0, len(names))
 
         def _next_image() -> None:
             registered[0] += 1
             progress("mapping", min(registered[0], len(names)), len(names))
 
         models = pycolmap.incremental_mapping(
-            db_path, image_dir, sparse_dir, options=opts, next_image_callback=_next_image
+            db_path, sfm_dir, sparse_dir, options=opts, next_image_callback=_next_image
         )
         timings["mapping_s"] = time.perf_counter() - t0
     if not models:
@@ -235,12 +345,18 @@ def run_sfm(
     best = ordered[0]
     reg = {best.image(i).name for i in best.reg_image_ids()}
     progress("mapping", len(reg), len(names))
+    working_error = float(best.compute_mean_reprojection_error())
+    if scale < 1.0:
+        rescale_reconstruction(best, scale, *full_size)
     return SfMResult(
         reconstruction=best,
         unregistered=sorted(set(names) - reg),
         model_sizes=[r.num_reg_images() for r in ordered],
         matcher=strategy,
         num_pairs=len(pairs),
+        sfm_size=sfm_size,
+        scale=scale,
+        working_reprojection_error_px=working_error,
         timings=timings,
     )
 
@@ -250,14 +366,29 @@ def needs_undistortion(rec: pycolmap.Reconstruction) -> bool:
     return any(c.model_name not in PINHOLE_MODELS for c in rec.cameras.values())
 
 
-def undistort(rec_dir: Path, image_dir: Path, out_dir: Path, num_threads: int = 2, verbose: bool = False) -> Path:
+def undistort(
+    rec_dir: Path,
+    image_dir: Path,
+    out_dir: Path,
+    num_threads: int = 2,
+    verbose: bool = False,
+    progress: ProgressFn | None = None,
+) -> Path:
     """Undistort ``rec_dir``'s images to a PINHOLE camera with pycolmap; returns the output folder.
 
     ``out_dir/images`` and ``out_dir/sparse`` hold the result. COLMAP crops to the valid region, so the
-    image size may shrink by a few pixels.
+    image size may shrink by a few pixels. Runs in chunks of images so that progress can be shown
+    (each call writes the whole undistorted model again; the images are what takes time).
     """
+    progress = progress or (lambda stage, done, total: None)
+    rec = pycolmap.Reconstruction(rec_dir)
+    names = sorted(rec.image(i).name for i in rec.reg_image_ids())
+    chunk = 8
+    progress("undistort", 0, len(names))
     with colmap_log(verbose):
-        pycolmap.undistort_images(out_dir, rec_dir, image_dir, num_threads=num_threads)
+        for i in range(0, len(names), chunk):
+            pycolmap.undistort_images(out_dir, rec_dir, image_dir, image_names=names[i : i + chunk], num_threads=num_threads)
+            progress("undistort", min(i + chunk, len(names)), len(names))
     return out_dir
 
 

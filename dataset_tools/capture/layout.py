@@ -8,7 +8,7 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import shutil
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -31,8 +31,15 @@ def copy_images(src_dir: Path, names: Iterable[str], dst_dir: Path) -> None:
         shutil.copyfile(src_dir / name, dst_dir / name)
 
 
-def write_downscaled(images_dir: Path, names: Iterable[str], out_root: Path, factors: Iterable[int]) -> dict[int, list[int]]:
+def write_downscaled(
+    images_dir: Path,
+    names: Iterable[str],
+    out_root: Path,
+    factors: Iterable[int],
+    on_image: Callable[[int], None] | None = None,
+) -> dict[int, list[int]]:
     """Write ``out_root/images_{f}/`` for each factor; returns factor -> [width, height].
+    ``on_image(k)`` is called after the k-th image (progress).
 
     Pixel centres stay consistent with intrinsics scaled by (new size / old size): OpenCV's area
     resampling maps continuous coordinates by that same ratio.
@@ -44,13 +51,17 @@ def write_downscaled(images_dir: Path, names: Iterable[str], out_root: Path, fac
         if f < 1:
             raise InputError(f"downscale factor must be >= 1, got {f}", "--downscale")
         (out_root / f"images_{f}").mkdir(parents=True, exist_ok=True)
-    for name in names:
+    if not factors:
+        return sizes
+    for k, name in enumerate(names, 1):
         img = read_image(images_dir / name)
         h, w = img.shape[:2]
         for f in factors:
             sw, sh = scaled_size(w, h, f)
             write_image(out_root / f"images_{f}" / name, resize_image(img, sw, sh))
             sizes[f] = [sw, sh]
+        if on_image is not None:
+            on_image(k)
     return sizes
 
 

@@ -44,7 +44,10 @@ class BuildConfig:
     remove_unseen_points: bool = False  # also delete points observed inside those masks
     min_train_views: int = 2  # keep a point only when this many object-inclusive photos observe it (leaks.py)
     min_train_angle: float = 1.5  # ... and their rays span at least this many degrees (COLMAP mapper's minimum; leaks.py)
-    require_all_registered: bool = False  # unregistered photos: reported skip (default) or an error
+    # share of all photos (object-inclusive and object-free) that must register, else the build stops
+    # naming the photos it could not place: a model missing a tenth of a walk-around is more often a
+    # failed reconstruction than a few bad photos. 1.0: every photo; 0.0: accept a partial model.
+    min_registered: float = 0.9
     overwrite: bool = False
     scene_name: str | None = None  # default: OUT's folder name
     progress: bool = True
@@ -72,7 +75,9 @@ class BuildReport:
             f"  photos: {c['object_inclusive']} object-inclusive + {c['object_free']} object-free "
             f"({c['width']}x{c['height']}, {c['layout']}); skipped {len(c['skipped'])}",
             f"  registered {r['registered']}/{r['total']} images with one {r['camera']['model']} camera "
-            f"(matcher {r['matcher']}, {r['pairs']} pairs); mean reprojection error {r['mean_reprojection_error_px']:.3f} px",
+            f"(SfM at {r['sfm_size'][0]}x{r['sfm_size'][1]}, matcher {r['matcher']}, {r['pairs']} pairs); "
+            f"mean reprojection error {r['mean_reprojection_error_px']:.3f} px at full size "
+            f"({r['sfm_reprojection_error_px']:.3f} px at the working size)",
         ]
         for name, src in r["unregistered"].items():
             lines.append(f"  not registered (skipped): {src}")
@@ -93,7 +98,9 @@ class BuildReport:
         )
         if not o.get("ground_truth", True):
             lines.append(f"  no ground truth: {NO_OBJECT_FREE_PHOTOS}")
-        lines.append(f"  time: {self.timings['total_s']:.1f} s")
+        t = self.timings
+        parts = [f"{k[:-2].replace('_', ' ')} {v:.1f}" for k, v in t.items() if k != "total_s"]
+        lines.append(f"  time: {t['total_s']:.1f} s ({', '.join(parts)})")
         return "\n".join(lines)
 
 
@@ -128,6 +135,23 @@ def _ground_truth_entry(cset: CaptureSet) -> dict:
     return {GROUND_TRUTH_KEY: False, GROUND_TRUTH_REASON_KEY: NO_OBJECT_FREE_PHOTOS}
 
 
+def _check_registered_share(n_registered: int, unplaced: list[str], min_share: float, captures: str | Path) -> None:
+    """Stop with one line naming the photos SfM could not place when fewer than ``min_share`` of all registered."""
+    total = n_registered + len(unplaced)
+    needed = int(np.ceil(min_share * total - 1e-9))
+    if n_registered >= needed:
+        return
+    root = Path(captures)
+    shown = [str(Path(p).relative_to(root)) if Path(p).is_relative_to(root) else str(p) for p in unplaced]
+    more = f" and {len(shown) - 20} more" if len(shown) > 20 else ""
+    flag = "--require-all-registered" if min_share >= 1.0 else f"--min-registered {min_share:g}"
+    raise InputError(
+        f"only {n_registered} of {total} photos registered ({flag} needs {needed}); could not place "
+        f"{', '.join(shown[:20])}{more} (--allow-partial or a lower --min-registered keeps a partial model)",
+        captures,
+    )
+
+
 def _camera_dict(cam: pycolmap.Camera) -> dict:
     return {"model": cam.model_name, "width": cam.width, "height": cam.height, "params": [float(v) for v in cam.params]}
 
@@ -142,6 +166,8 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
         raise InputError(f"must be >= 1, got {cfg.min_train_views}", "--min-train-views")
     if not 0.0 <= cfg.min_train_angle < 90.0:
         raise InputError(f"must be in [0, 90) degrees, got {cfg.min_train_angle}", "--min-train-angle")
+    if not 0.0 <= cfg.min_registered <= 1.0:
+        raise InputError(f"must be a fraction in [0, 1], got {cfg.min_registered}", "--min-registered")
     t_start = time.perf_counter()
     out = Path(out)
     cset = collect_captures(captures, cfg.captures)
@@ -172,9 +198,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
             raise InputError(f"none of the {len(free_names)} object-free photos could be registered", captures)
         if len(registered - free_names) < 2:
             raise InputError("fewer than 2 object-inclusive photos could be registered", captures)
-        if cfg.require_all_registered and sfm.unregistered:
-            first = source_of[sfm.unregistered[0]]
-            raise InputError(f"could not be registered ({len(sfm.unregistered)} photos failed in all)", first)
+        _check_registered_share(len(registered), [source_of[n] for n in sfm.unregistered], cfg.min_registered, captures)
         c0 = next(iter(rec.cameras.values()))
         sfm_camera = pycolmap.Camera(  # a copy: rec is replaced after undistortion
             model=c0.model_name, width=c0.width, height=c0.height, params=list(c0.params), camera_id=c0.camera_id
@@ -182,25 +206,27 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
         registration = {
             "registered": len(registered),
             "total": len(names),
+            "min_registered": cfg.min_registered,
             "unregistered": {n: source_of[n] for n in sfm.unregistered},
             "models": sfm.model_sizes,
             "matcher": sfm.matcher,
             "pairs": sfm.num_pairs,
-            "mean_reprojection_error_px": float(rec.compute_mean_reprojection_error()),
+            "mean_reprojection_error_px": float(rec.compute_mean_reprojection_error()),  # in full-size pixels
+            "sfm_size": list(sfm.sfm_size),  # the working size SfM ran at (SfMConfig.sfm_max_size)
+            "sfm_reprojection_error_px": sfm.working_reprojection_error_px,  # in pixels of the working size
             "mean_track_length": float(rec.compute_mean_track_length()),
             "camera": _camera_dict(sfm_camera),
         }
         n_sfm = rec.num_points3D()
 
         # Undistort to PINHOLE (paper supp. Sec. A) when the model has distortion.
+        t0 = time.perf_counter()
         undistorted = needs_undistortion(rec)
         if undistorted:
             raw = work / "sparse_raw"
             raw.mkdir()
             rec.write(raw)
-            progress("undistort", 0, 1)
-            undistort(raw, staged, work / "undistorted", cfg.sfm.num_threads, cfg.sfm.verbose)
-            progress("undistort", 1, 1)
+            undistort(raw, staged, work / "undistorted", cfg.sfm.num_threads, cfg.sfm.verbose, progress)
             rec = pycolmap.Reconstruction(work / "undistorted" / "sparse")
             image_src = work / "undistorted" / "images"
             if masks is not None:
@@ -209,6 +235,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
             to_pinhole(rec)
             image_src = staged
         n_undist = rec.num_points3D()
+        undistort_s = time.perf_counter() - t0
 
         leak = remove_leaked_points(rec, min_inclusive_views=cfg.min_train_views, min_inclusive_angle_deg=cfg.min_train_angle)
         masked_removed = 0
@@ -221,6 +248,7 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
 
         cam = next(iter(rec.cameras.values()))
         out_names = sorted(registered)
+        t0 = time.perf_counter()
         progress("writing", 0, len(out_names))
         copy_images(image_src, out_names, tmp / "images")
         (tmp / "sparse" / "0").mkdir(parents=True)
@@ -228,9 +256,11 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
         if masks is not None:
             for name, m in masks.items():
                 write_mask(tmp / "unseen_mask" / f"{Path(name).stem}.png", m)
-        downscaled = write_downscaled(tmp / "images", out_names, tmp, cfg.downscale)
+        downscaled = write_downscaled(tmp / "images", out_names, tmp, cfg.downscale,
+                                      on_image=lambda k: progress("writing", k, len(out_names)))
         progress("writing", len(out_names), len(out_names))
         shutil.rmtree(work)
+        write_s = time.perf_counter() - t0
 
         n_test = len(reg_free)
         report = BuildReport(
@@ -265,7 +295,8 @@ def build_dataset(captures: str | Path, out: str | Path, config: BuildConfig | N
                 "unseen_masks": len(masks) if masks is not None else 0,
                 "ground_truth": cset.has_ground_truth,
             },
-            timings={**{k: round(v, 2) for k, v in sfm.timings.items()}, "total_s": time.perf_counter() - t_start},
+            timings={**{k: round(v, 2) for k, v in sfm.timings.items()}, "undistort_s": round(undistort_s, 2),
+                     "write_s": round(write_s, 2), "total_s": time.perf_counter() - t_start},
             leaked_xyz=leak.removed_xyz,
         )
         sfm_cfg = asdict(cfg.sfm)

@@ -254,6 +254,11 @@ BAD_BUILD_OPTIONS = {  # case -> the wrong options (all refused before SfM; the 
     "seed-negative": ("--seed", "-3"),
     "remove-unseen-points-without-masks": ("--remove-unseen-points",),
     "matcher-unknown": ("--matcher", "vocab"),
+    "sfm-max-size-negative": ("--sfm-max-size", "-1"),
+    "sfm-max-size-words": ("--sfm-max-size", "big"),
+    "min-registered-above-one": ("--min-registered", "1.5"),
+    "min-registered-nan": ("--min-registered", "nan"),
+    "partial-and-all-registered": (("--allow-partial", "--require-all-registered"), "--require-all-registered"),
 }
 
 CASES = [
