@@ -553,7 +553,7 @@ def test_with_footprints_only_the_fill_and_the_footprints_surroundings_move(hole
     """The stage's active rows (footprint_rows): the floor within 0.25 of the footprint's size around
     it; everything else comes back bit for bit after 3D inpainting, the new Gaussians are refitted."""
     from inpaint360gs.core.support import Footprint
-    from inpaint360gs.inpaint.stage import footprint_rows, on_supports
+    from inpaint360gs.inpaint.stage import footprint_rows, in_columns
 
     floor, hole, edited, new, views = hole_case
     square = np.array([[-0.35, -0.35], [0.35, -0.35], [0.35, 0.35], [-0.35, 0.35]])
@@ -563,7 +563,7 @@ def test_with_footprints_only_the_fill_and_the_footprints_surroundings_move(hole
     xy = edited.means[:, :2].double().numpy()
     near = (np.abs(xy) <= 0.35 + 0.25 * 0.7 + 1e-6).all(axis=1)  # the square grown by 0.25 x its size (0.7), mitred
     assert np.array_equal(active.numpy(), near & (np.abs(edited.means[:, 2].numpy()) < 0.5))
-    assert on_supports(new.means.double().numpy(), [fp], 0.25).all()  # the new Gaussians lie on the support inside it
+    assert in_columns(new.means.double().numpy(), [fp], 0.25).all()  # the new Gaussians lie in the column
     c = RefineConfig(iterations=20, seed=0)
     final, _ = refine(edited, new, views, c, region=floor.means[hole].double().numpy(), extent=2.0, active=active)
     static = edited.subset(~active)

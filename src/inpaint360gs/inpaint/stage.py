@@ -66,6 +66,9 @@ class InpaintConfig:
     # within this x the footprint's size around it (footprint_rows); without, those near the removed
     # Gaussians (refine.RefineConfig.region_margin).
     footprint_margin: float = 0.25
+    # A surface the removal reveals is filled when it lies within this x the footprint's size of it (a
+    # backdrop behind the object); farther, the depth test's doubts are the 3DGS's own, not the removal's.
+    reveal_margin: float = 0.5
     virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)
     unseen: UnseenConfig = field(default_factory=UnseenConfig)
     refine: RefineConfig = field(default_factory=RefineConfig)
@@ -139,15 +142,6 @@ def support_depth(camera, footprints: list, margin: float) -> np.ndarray:
     return out
 
 
-def on_supports(points: np.ndarray, footprints: list, margin: float, tol: float = 0.1) -> np.ndarray:
-    """Which ``points`` lie on a footprint's support (within ``tol`` x the object's height of the
-    plane) inside the footprint grown by ``margin`` x its size."""
-    out = np.zeros(len(points), dtype=bool)
-    for fp in footprints:
-        out |= (fp.distance(points) <= margin * fp.size) & (np.abs(fp.heights(points)) <= tol * fp.height)
-    return out
-
-
 def footprint_rows(model: Gaussians, footprints: list, margin: float) -> torch.Tensor:
     """Gaussians of ``model`` in the footprints' grown columns (:func:`in_columns`): the support
     around the hole, what the 3D inpainting may adjust besides the new Gaussians (the seams of
@@ -155,15 +149,50 @@ def footprint_rows(model: Gaussians, footprints: list, margin: float) -> torch.T
     return torch.from_numpy(in_columns(model.means.detach().cpu().double().numpy(), footprints, margin))
 
 
-def _plane_fill(z: np.ndarray, fallback):
-    """A depth inpainter that puts the support plane's depth ``z`` into the hole (``fallback`` where
-    the plane is out of sight)."""
+@dataclass
+class RevealedGeometry:
+    """Where a view looks into what the removal emptied (:func:`revealed_geometry`)."""
+
+    support: np.ndarray  # (H, W) depth of the support plane where the removal emptied it, inf elsewhere
+    surface: np.ndarray  # (H, W) depth of the surface the edited scene shows, nan where it shows none
+    near: np.ndarray  # (H, W) bool: that surface lies in the footprints' columns grown by the reveal margin
+
+
+@torch.no_grad()
+def revealed_geometry(camera, edited: Gaussians, footprints: list, cfg: "InpaintConfig") -> RevealedGeometry:
+    """The support's depth where ``camera``'s ray meets it inside a footprint grown by
+    ``footprint_margin`` and no surface of the edited scene stands in front of it (an object behind
+    the removed one, a backdrop), and the edited scene's own surface with whether it lies near the
+    removed object (inside the columns grown by ``reveal_margin``)."""
+    from inpaint360gs.views.unseen import backproject, normalised_depth
+
+    z = support_depth(camera, footprints, cfg.footprint_margin)
+    o = render(edited, camera, backend=cfg.backend)
+    alpha = o.alpha.numpy()
+    d = normalised_depth(o).numpy().astype(np.float64)
+    surface = np.where(alpha >= cfg.unseen.min_alpha, d, np.nan)
+    has = np.isfinite(surface)
+    z = np.where(has & (surface < 0.97 * z), np.inf, z)  # something stands in front of the support there
+    near = np.zeros(alpha.shape, dtype=bool)
+    rows, cols = np.nonzero(has)
+    if len(rows):
+        near[rows, cols] = in_columns(backproject(camera, surface[rows, cols], rows, cols), footprints, cfg.reveal_margin)
+    return RevealedGeometry(z, surface, near)
+
+
+def _surface_fill(g: RevealedGeometry, fallback):
+    """A depth inpainter for a view into what the removal emptied: the support plane's depth where it
+    was emptied, the revealed surface's own depth where the edited scene shows one, ``fallback``
+    (a plane through the ring) where neither."""
 
     def fill(depth, mask):
-        ok = mask & np.isfinite(z)
         out = depth.copy()
-        out[ok] = z[ok]
-        return fallback(out, mask & ~ok) if (mask & ~ok).any() else out
+        plane = mask & np.isfinite(g.support)
+        out[plane] = g.support[plane]
+        own = mask & ~plane & np.isfinite(g.surface)
+        out[own] = g.surface[own]
+        rest = mask & ~plane & ~own
+        return fallback(out, rest) if rest.any() else out
 
     return fill
 
@@ -204,10 +233,13 @@ def inpaint_scene(
     tried: list[tuple[list, list]] = []  # (candidate cameras, their fill shares)
 
     def fill_mask(model, removed, edited_model, c):
-        """The view's unseen mask; with footprints, only where its rays meet the support inside them
-        (what the removal emptied is the support's to fill; a surface revealed elsewhere stays)."""
+        """The view's unseen mask; with footprints, only where the removal emptied the support or
+        revealed a surface near the object (the 3DGS's uncertain depth far away is no part of it)."""
         m = unseen_mask(model, removed, edited_model, c, visibility, cfg.unseen, cfg.backend)[0]
-        return m & np.isfinite(support_depth(c, footprints, cfg.footprint_margin)) if footprints else m
+        if not footprints:
+            return m
+        g = revealed_geometry(c, edited_model, footprints, cfg)
+        return m & (np.isfinite(g.support) | g.near)
 
     def shares(cams):
         s = [fill_mask(original, removed_mask, edited, c).mean() for c in cams]
@@ -254,8 +286,9 @@ def inpaint_scene(
     if footprints:  # what the removal emptied is filled on its support: the plane's depth where a ray meets it there
         sup = make_inpainter(cfg.support_inpainter, **opts) if supports else None
         for i, c in enumerate(cameras):
-            planes[i] = support_depth(c, footprints, cfg.footprint_margin)
-            fills[i] = (sup.rgb if i < len(supports) else None, _plane_fill(planes[i], dep.depth))
+            geo = revealed_geometry(c, edited, footprints, cfg)
+            planes[i] = geo.support
+            fills[i] = (sup.rgb if i < len(supports) else None, _surface_fill(geo, dep.depth))
     views = inpaint_views(edited, cameras, masks, rgb.rgb, dep.depth, condition=cfg.condition, backend=cfg.backend, fills=fills, planes=planes)
     consistency = reprojection_error(views)
     t["inpaint_2d_s"] = time.perf_counter() - t0
@@ -264,8 +297,8 @@ def inpaint_scene(
     t0 = time.perf_counter()
     if cfg.init == "depth":
         new = depth_guided_init(views, sh_degree=edited.sh_degree)
-        if footprints:  # the fill of what the removal emptied lies on its support
-            new = new.subset(torch.from_numpy(on_supports(new.means.detach().double().numpy(), footprints, cfg.footprint_margin)))
+        if footprints:  # the fill lies where the removal emptied or revealed something
+            new = new.subset(torch.from_numpy(in_columns(new.means.detach().double().numpy(), footprints, cfg.reveal_margin)))
     elif cfg.init == "naive":
         box = original.means[removed_mask].detach().numpy()
         new = naive_init(views, box.min(0), box.max(0), max(1, len(depth_guided_init(views, sh_degree=0))), seed=cfg.refine.seed, sh_degree=edited.sh_degree)
