@@ -235,7 +235,7 @@ def test_cli_run_with_the_real_stages(tiny, tmp_path, capsys):
 
     assert main(argv("--click", f"{VIEW}:0,0")) == 2  # nothing rendered there
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "on the background" in err[0]
+    assert len(err) == 1 and "on empty space" in err[0]
     assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate", "distill"}
     assert not (out / "removed").exists()
 
