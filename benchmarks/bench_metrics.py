@@ -108,7 +108,7 @@ def main() -> None:
 
     import torch
 
-    from inpaint360gs.metrics import evaluate_renders
+    from inpaint360gs.evaluate.stage import evaluate_renders
 
     torch.set_num_threads(args.threads)
     lines: list[str] = []

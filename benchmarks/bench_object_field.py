@@ -131,7 +131,7 @@ def removal_scores(field, removed_dir: Path, scene, scene_dir: Path, targets: li
 def run_variant(scene_dir: Path, model: Path, out: Path, segmenter: str, association: str, threads: int) -> dict:
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.pipeline.run import RunConfig, Runner
-    from inpaint360gs.segment.associate import AssociationConfig
+    from inpaint360gs.associate.config import AssociationConfig
 
     scene = load_scene(scene_dir, load_masks=False)
     cfg = RunConfig(segmenter=segmenter, association=AssociationConfig(method=association).resolved())

@@ -11,7 +11,8 @@ from scene_builder import blobs_scene
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.scene import load_scene
 from inpaint360gs.render.api import render
-from inpaint360gs.segment.associate import AssociationConfig, associate, gs_iou, near_cluster
+from inpaint360gs.associate import AssociationConfig, associate
+from inpaint360gs.associate.kom import gs_iou, near_cluster
 
 
 def test_near_cluster_is_the_exact_two_means_split_per_group():
@@ -126,7 +127,7 @@ def test_database_is_compared_through_what_the_view_can_label():
     accumulated set scores 80 / 400 = 0.2, not above sigma: each band founds a new object.
     Compared through the Gaussians the view labels, the band inherits the object's id."""
     from inpaint360gs.core.camera import Camera
-    from inpaint360gs.segment.associate import _kom
+    from inpaint360gs.associate.kom import kom
 
     cam = Camera(R=torch.eye(3, dtype=torch.float64), t=torch.zeros(3, dtype=torch.float64), fx=50.0, fy=50.0, cx=0.0, cy=0.0, width=40, height=40)
     ys, xs = np.mgrid[10:30, 10:30].reshape(2, -1) + 0.5  # one Gaussian per pixel, the object at z ~ 1 ...
@@ -143,11 +144,11 @@ def test_database_is_compared_through_what_the_view_can_label():
             seg[10 + 5 * band : 14 + 5 * band, 10:30] = 3 + band  # 80 pixels
         segs.append(seg)
     cams = [cam] * len(segs)
-    out, sizes = _kom(segs, cams, means, AssociationConfig(compare="visible").resolved())
+    out, sizes = kom(segs, cams, means, AssociationConfig(compare="visible").resolved())
     assert len(sizes) == 1 and sizes[0] == 400 and all(set(np.unique(o)) == {0, 1} for o in out)
-    out, sizes = _kom(segs, cams, means, AssociationConfig(compare="all", part_share=0.0, merge_share=0.0).resolved())
+    out, sizes = kom(segs, cams, means, AssociationConfig(compare="all", part_share=0.0, merge_share=0.0).resolved())
     assert len(sizes) == 5  # the literal reading (and Alg. 1 alone): every band a new object
-    out, sizes = _kom(segs, cams, means, AssociationConfig(compare="all").resolved())
+    out, sizes = kom(segs, cams, means, AssociationConfig(compare="all").resolved())
     assert len(sizes) == 1  # the literal reading with the part rule: each band lies inside the object's set
     with pytest.raises(InputError, match="comparison"):
         AssociationConfig(compare="nearest").resolved()
@@ -170,7 +171,7 @@ def test_a_small_split_part_joins_its_object():
     """The object seen whole (400 Gaussians), then split by the segmenter into 360 + 40 pixels: the
     small part's GS-IoU is 40 / 400 = 0.1 < sigma, so Alg. 1 alone founds a second object for it;
     all of its Gaussians lie in the object's set, so the part rule gives it the object's id."""
-    from inpaint360gs.segment.associate import _kom
+    from inpaint360gs.associate.kom import kom
 
     cam, means = _flat_scene()
     whole = np.zeros((40, 40), np.uint16)
@@ -178,9 +179,9 @@ def test_a_small_split_part_joins_its_object():
     split = np.zeros((40, 40), np.uint16)
     split[10:28, 10:30] = 1
     split[28:30, 10:30] = 2
-    out, sizes = _kom([whole, split], [cam, cam], means, AssociationConfig().resolved())
+    out, sizes = kom([whole, split], [cam, cam], means, AssociationConfig().resolved())
     assert len(sizes) == 1 and (out[1][10:30, 10:30] == 1).all()
-    out, sizes = _kom([whole, split], [cam, cam], means, AssociationConfig(part_share=0.0).resolved())
+    out, sizes = kom([whole, split], [cam, cam], means, AssociationConfig(part_share=0.0).resolved())
     assert len(sizes) == 2 and (out[1][28:30, 10:30] == 2).all()
 
 
@@ -199,16 +200,16 @@ def test_a_merged_segment_is_divided_between_the_objects():
     its pixels go to the two ids by the Gaussians behind them and neither set takes the other's
     Gaussians. Without the rule the whole segment takes one id and that object's set swallows the
     other (the next view, apart again, then gives both objects that id)."""
-    from inpaint360gs.segment.associate import _kom
+    from inpaint360gs.associate.kom import kom
 
     cam, means = _flat_scene()
     apart, merged = _two_or_one_segment()
     segs, cams = [apart, merged, apart], [cam] * 3
-    out, sizes = _kom(segs, cams, means, AssociationConfig().resolved())
+    out, sizes = kom(segs, cams, means, AssociationConfig().resolved())
     assert len(sizes) == 2 and list(sizes) == [200, 200]
     for o in out:
         assert (o[10:30, 10:20] == 1).all() and (o[10:30, 20:30] == 2).all()
-    out, sizes = _kom(segs, cams, means, AssociationConfig(merge_share=0.0).resolved())
+    out, sizes = kom(segs, cams, means, AssociationConfig(merge_share=0.0).resolved())
     assert (out[1][10:30, 10:30] == out[1][10, 10]).all()  # one id over both objects
     assert sizes.max() == 400
 
@@ -218,16 +219,16 @@ def test_pieces_founded_apart_are_joined_when_more_views_see_them_as_one():
     two later views see it whole, and each whole segment is divided between the two halves' sets.
     Two views segmented the pair as one, one as two: the halves are joined into one id in every view
     and their sets into one. Without the step the halves keep their two ids."""
-    from inpaint360gs.segment.associate import _kom
+    from inpaint360gs.associate.kom import kom
 
     cam, means = _flat_scene()
     halves, whole = _two_or_one_segment()
     segs, cams = [halves, whole, whole], [cam] * 3
-    out, sizes = _kom(segs, cams, means, AssociationConfig().resolved())
+    out, sizes = kom(segs, cams, means, AssociationConfig().resolved())
     assert list(sizes) == [400]
     assert all((o[10:30, 10:30] == 1).all() and (o > 0).sum() == 400 for o in out)
-    out, sizes = _kom(segs, cams, means, AssociationConfig(consolidate=False).resolved())
+    out, sizes = kom(segs, cams, means, AssociationConfig(consolidate=False).resolved())
     assert list(sizes) == [200, 200] and (out[1][10:30, 10:20] == 1).all() and (out[1][10:30, 20:30] == 2).all()
     # seen as two in two views and as one in one (the merged-segment case): they stay two objects
-    out, sizes = _kom([halves, whole, halves], cams, means, AssociationConfig().resolved())
+    out, sizes = kom([halves, whole, halves], cams, means, AssociationConfig().resolved())
     assert list(sizes) == [200, 200] and (out[2][10:30, 20:30] == 2).all()

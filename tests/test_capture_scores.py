@@ -12,7 +12,7 @@ import scene_builder as sb
 from cli_harness import run_cli
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.remove.removal import removal_stage
+from inpaint360gs.remove.stage import removal_stage
 from object_fields import labelled_field, write_field
 
 IDS = [0, 3, 7]

@@ -28,7 +28,7 @@ from inpaint360gs.distill.cached import CachedFeatureRenderer
 from inpaint360gs.distill.field import make_classifier
 from inpaint360gs.distill.labels import load_labels
 from inpaint360gs.distill.loss import knn_graph, spatial_loss
-from inpaint360gs.distill.run import Distiller, cache_views
+from inpaint360gs.distill.stage import Distiller, cache_views
 from inpaint360gs.gs.loop import Target
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene

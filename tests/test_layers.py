@@ -20,14 +20,15 @@ FLOORS = {
     "metrics": 2,
     "gs": 3,
     "segment": 4,
-    "distill": 5,
-    "remove": 6,
-    "views": 7,
-    "inpaint": 8,
-    "evaluate": 9,
-    "report": 9,
-    "pipeline": 10,
-    "cli": 11,
+    "associate": 5,
+    "distill": 6,
+    "remove": 7,
+    "views": 8,
+    "inpaint": 9,
+    "evaluate": 10,
+    "report": 10,
+    "pipeline": 11,
+    "cli": 12,
 }
 
 

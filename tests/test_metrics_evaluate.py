@@ -25,7 +25,7 @@ from inpaint360gs.metrics import (
     roi_ssim,
     ssim,
 )
-from inpaint360gs.metrics.evaluate import metric_names
+from inpaint360gs.evaluate.stage import metric_names
 from inpaint360gs.metrics.masked import EMPTY_ROI_REASON, INFINITE_PSNR_REASON
 from tests.scene_builder import simple_scene, write_png
 from tests.test_metrics_distribution import generated_inception  # noqa: F401 (session fixture)

@@ -1,6 +1,6 @@
 """``inpaint360gs associate SCENE MODEL.ply SEGMENTS OUT``: Key Object Management association of the
 segment stage's per-view masks into view-consistent object masks (paper Sec. 3.2; thin shell over
-:func:`inpaint360gs.segment.associate.associate_stage`)."""
+:func:`inpaint360gs.associate.stage.associate_stage`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from inpaint360gs.cli.common import check_apart, existing_dir, existing_file, fr
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from inpaint360gs.segment.associate import AssociationConfig
+    from inpaint360gs.associate.config import AssociationConfig
 
     d = AssociationConfig()
     parser.add_argument("scene", type=existing_dir, help="scene folder")
@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.segment.associate import AssociationConfig, associate_stage
+    from inpaint360gs.associate import AssociationConfig, associate_stage
 
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "MODEL": args.model, "SEGMENTS": args.segments})  # --overwrite replaces OUT as a whole
     cfg = AssociationConfig(

@@ -2,7 +2,7 @@
 Tab. 1, supp. Eq. 1) for a folder of renders of a scene's test_ views — full image, ``masked_*``
 (the paper's evaluation code) and ``roi_*`` (strict) conventions, LPIPS VGG and AlexNet, FID with
 the Inception weights when configured, and the offline substitutes fd_vgg16 / kid_vgg16 (thin shell
-over :func:`inpaint360gs.metrics.evaluate.evaluate_renders`). A scene without test_ views (no
+over :func:`inpaint360gs.evaluate.stage.evaluate_renders`). A scene without test_ views (no
 object-free photos) is scored as "no ground truth": exit 0, every metric null with that reason."""
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.cli.common import check_apart, set_threads
     from inpaint360gs.core.errors import InputError
     from inpaint360gs.io.atomic import write_text
-    from inpaint360gs.metrics.evaluate import evaluate_renders
+    from inpaint360gs.evaluate.stage import evaluate_renders
 
     set_threads(args.threads)
     nets = tuple(n.strip() for n in args.nets.split(",") if n.strip())

@@ -1,6 +1,6 @@
 """``inpaint360gs remove SCENE DISTILL OUT --click VIEW:X,Y | --id N``: select objects by a click on
 a view (resolved through the rendered id map) or by id, and remove them from the distilled field
-(paper Sec. 3.4; thin shell over :func:`inpaint360gs.remove.removal.removal_stage`)."""
+(paper Sec. 3.4; thin shell over :func:`inpaint360gs.remove.stage.removal_stage`)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ def add_click_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from inpaint360gs.remove.removal import RemovalConfig
+    from inpaint360gs.remove.stage import RemovalConfig
 
     d = RemovalConfig()
     parser.add_argument("scene", type=existing_dir, help="scene folder")
@@ -43,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.atomic import check_output_dir
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.remove.removal import RemovalConfig, load_field, removal_stage
+    from inpaint360gs.remove.stage import RemovalConfig, load_field, removal_stage
     from inpaint360gs.remove.select import Click, check_clicks
 
     set_threads(args.threads)

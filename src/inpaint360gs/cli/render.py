@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io import provenance
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.render.views import render_views
+    from inpaint360gs.render.stage import render_views
 
     check_apart({"OUT": args.out}, {"MODEL": args.model, "SCENE": args.scene})  # --overwrite replaces OUT as a whole
     set_threads(args.threads)

@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.pipeline.run import RunConfig, Runner
     from inpaint360gs.remove.select import Click
-    from inpaint360gs.segment.associate import AssociationConfig
+    from inpaint360gs.associate.config import AssociationConfig
 
     set_threads(args.threads)
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "--model": args.model}, replaced=False)  # stages replace their sub-folders only

@@ -4,7 +4,7 @@ Three mask conventions are named apart (see :mod:`.masked`): full image (``psnr`
 ``lpips`` = VGG as in the paper's evaluation code, ``lpips_alex``), ``masked_*`` (the paper's
 code: both images multiplied by the unseen mask) and ``roi_*`` (mask pixels only). FID (Inception
 features, :mod:`.inception`) and its VGG16 substitutes share the distances of :mod:`.distribution`.
-:func:`evaluate_renders` scores a folder of renders against a scene's test views.
+The evaluation stage that applies them to a folder of renders is :mod:`inpaint360gs.evaluate`.
 """
 
 from inpaint360gs.metrics.distribution import (
@@ -13,7 +13,6 @@ from inpaint360gs.metrics.distribution import (
     frechet_distance_features,
     kernel_inception_distance,
 )
-from inpaint360gs.metrics.evaluate import evaluate_renders
 from inpaint360gs.metrics.image import psnr, ssim, ssim_index_map
 from inpaint360gs.metrics.inception import FIDInceptionV3, inception_features, load_fid_inception
 from inpaint360gs.metrics.lpips import get_lpips_net, lpips, lpips_alex, lpips_map
@@ -37,7 +36,6 @@ __all__ = [
     "FIDInceptionV3",
     "amcr",
     "apply_mask",
-    "evaluate_renders",
     "feature_statistics",
     "frechet_distance",
     "frechet_distance_features",

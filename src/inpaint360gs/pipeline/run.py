@@ -25,9 +25,9 @@ from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.inpaint.stage import InpaintConfig
 from inpaint360gs.io.atomic import remove_tree, write_text
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.remove.removal import RemovalConfig
+from inpaint360gs.remove.stage import RemovalConfig
 from inpaint360gs.remove.select import Click, check_clicks
-from inpaint360gs.segment.associate import AssociationConfig
+from inpaint360gs.associate.config import AssociationConfig
 
 STAGES = ("train", "segment", "associate", "distill", "remove", "inpaint")
 RUN_JSON = "run.json"
@@ -221,13 +221,13 @@ class Runner:
         segment_scene(self.scene, self._model(), seg, self.layout.segment, model_path=self.model_file, overwrite=True, progress=self.progress)
 
     def _associate(self) -> None:
-        from inpaint360gs.segment.associate import associate_stage
+        from inpaint360gs.associate.stage import associate_stage
 
         associate_stage(self.scene, self._model(), self.layout.segment, self.layout.associate, self.cfg.association, overwrite=True,
                         model_path=self.model_file, meta={"scene": str(self.scene.root), "model": str(self.model_file)})  # fmt: skip
 
     def _distill(self) -> None:
-        from inpaint360gs.distill.run import distill
+        from inpaint360gs.distill.stage import distill
 
         lay = self.layout
         distill(self.scene, self.model_file, lay.associate / "object_mask", lay.associate / "objects.json", self.cfg.distill, lay.distill, overwrite=True, progress=self.progress)
@@ -238,7 +238,7 @@ class Runner:
         return IdentityField.load(self.layout.distill)
 
     def _remove(self) -> None:
-        from inpaint360gs.remove.removal import removal_stage
+        from inpaint360gs.remove.stage import removal_stage
 
         removal_stage(self._field(), self.scene, self.layout.removed, clicks=self.clicks, ids=self.ids, cfg=self.cfg.removal,
                       backend=self.cfg.backend, overwrite=True, meta={"scene": str(self.scene.root)})  # fmt: skip

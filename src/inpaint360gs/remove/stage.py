@@ -143,7 +143,7 @@ def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     ``distill.json`` when there is one: the Gaussian count it records, and the scene it was
     distilled from, which must be ``scene`` (content hash and ``--resize``)."""
     from inpaint360gs.distill.field import MODEL_PLY
-    from inpaint360gs.distill.run import DISTILL_JSON
+    from inpaint360gs.distill.stage import DISTILL_JSON
 
     folder = Path(folder)
     field_ = IdentityField.load(folder)

@@ -4,8 +4,9 @@ interface, and the segment stage writing them.
 * :mod:`.base` — the interface and registry (``geometric`` default, ``oracle``, ``sam``);
 * :mod:`.frame`, :mod:`.cluster3d`, :mod:`.geometric` — the default segmenter (no learned weights);
 * :mod:`.oracle` — damaged ground-truth masks of synthetic scenes; :mod:`.sam` — SAM through ONNX;
-* :mod:`.masks` — id-image helpers; :mod:`.stage` — ``segment_scene`` (the ``segment`` CLI stage);
-* :mod:`.associate` — Key Object Management association into view-consistent ids (Sec. 3.2, Eq. 2).
+* :mod:`.masks` — id-image helpers; :mod:`.stage` — ``segment_scene`` (the ``segment`` CLI stage).
+
+Linking the per-view ids across views is the next floor's job (:mod:`inpaint360gs.associate`).
 """
 
 from inpaint360gs.segment.base import DEFAULT_SEGMENTER, SEGMENTERS, Segmenter, get_segmenter, segmenter_names
