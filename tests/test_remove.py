@@ -19,15 +19,11 @@ from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.images import read_mask
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.remove.stage import (
-    RemovalConfig,
-    _inlier_points,
-    fill_masks,
-    inside_hull,
-    object_body,
-    remove_objects,
-    removal_stage,
-)
+from inpaint360gs.remove.config import RemovalConfig
+from inpaint360gs.remove.geometry import inlier_points as _inlier_points
+from inpaint360gs.remove.geometry import inside_hull, object_body
+from inpaint360gs.remove.objects import fill_masks, remove_objects
+from inpaint360gs.remove.stage import removal_stage
 from inpaint360gs.remove.select import Click, resolve_clicks, select
 from inpaint360gs.render.api import render
 
@@ -471,7 +467,6 @@ def test_removal_stage_outputs(blobs, tmp_path):
 def test_object_body_keeps_sparse_parts_inside_the_body_and_drops_far_strays():
     """A sparsely reconstructed part of the object (split off the linking graph, within the body's
     grown bounding box) stays with the body; a stray cluster elsewhere in the scene does not."""
-    from inpaint360gs.remove.stage import object_body
 
     g = np.arange(0.0, 1.0001, 0.05)
     dense = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)  # the body: spacing 0.05, linked within 0.2
@@ -488,7 +483,6 @@ def test_object_body_keeps_sparse_parts_inside_the_body_and_drops_far_strays():
 def test_removal_keeps_a_piece_under_the_body_within_half_its_size():
     """The removal's default margin: a sparse piece under the body at 0.35 x its height (a watering
     can's lower part split off the linking graph) belongs to the object; at 0.25 it would not."""
-    from inpaint360gs.remove.stage import RemovalConfig, object_body
 
     g = np.arange(0.0, 1.0001, 0.05)
     dense = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
@@ -505,7 +499,7 @@ def test_leg_ends_hanging_below_the_object_go_with_it():
     (what the 2D masks lose near the floor). The steps down take the leg's end above the support
     guard band, not the floor, not a flat sheet beside the leg at the leg's own height, and nothing
     under a leg that ends high above the floor with a gap."""
-    from inpaint360gs.remove.stage import hanging_below
+    from inpaint360gs.remove.geometry import hanging_below
 
     up = np.array([0.0, 0.0, 1.0])
     leg = np.stack([np.zeros(40), np.zeros(40), np.linspace(0.02, 0.6, 40)], 1)  # spacing ~0.015
@@ -531,7 +525,7 @@ def test_upright_tells_standing_shapes_from_splats_lying_in_the_plane():
     from the normal are upright; one tilted 60 deg, a flat floor splat and a round one are not."""
     import math
 
-    from inpaint360gs.remove.stage import upright
+    from inpaint360gs.remove.geometry import upright
 
     def tilted(deg):  # rotation about x by deg (w, x, y, z)
         h = math.radians(deg) / 2
@@ -578,7 +572,6 @@ def test_support_column_is_on_by_default_and_turned_off_by_the_cli(tmp_path):
     import argparse
 
     from inpaint360gs.cli.remove import add_arguments
-    from inpaint360gs.remove.stage import RemovalConfig
 
     assert RemovalConfig().support_column == 0.01
     parser = argparse.ArgumentParser()

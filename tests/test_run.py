@@ -26,7 +26,7 @@ from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene
 from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner
-from inpaint360gs.remove.stage import RemovalConfig
+from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.select import Click
 from inpaint360gs.associate.config import AssociationConfig
 

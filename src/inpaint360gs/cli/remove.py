@@ -15,7 +15,7 @@ def add_click_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from inpaint360gs.remove.stage import RemovalConfig
+    from inpaint360gs.remove.config import RemovalConfig
 
     d = RemovalConfig()
     parser.add_argument("scene", type=existing_dir, help="scene folder")
@@ -43,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.atomic import check_output_dir
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.remove.stage import RemovalConfig, load_field, removal_stage
+    from inpaint360gs.remove.config import RemovalConfig
+    from inpaint360gs.remove.stage import load_field, removal_stage
     from inpaint360gs.remove.select import Click, check_clicks
 
     set_threads(args.threads)

@@ -25,7 +25,7 @@ from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.inpaint.stage import InpaintConfig
 from inpaint360gs.io.atomic import remove_tree, write_text
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.remove.stage import RemovalConfig
+from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.select import Click, check_clicks
 from inpaint360gs.associate.config import AssociationConfig
 

@@ -1,0 +1,130 @@
+"""Geometry of the removal on arrays of Gaussian centres (docs/architecture.md, "Removal"): the
+object's body in space, the convex hull, the Gaussians hanging below the removed ones, upright
+shapes, and the footprint column over the object's outline on its support plane (core/support.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.remove.config import FOOTPRINT_TOP, RemovalConfig
+
+
+def inlier_points(points: np.ndarray, k: int, n_std: float) -> np.ndarray:
+    """Statistical outlier removal: keep points whose mean distance to their k neighbours is at most
+    mean + n_std * std over the set."""
+    from scipy.spatial import cKDTree
+
+    if len(points) <= k + 1:
+        return points
+    d, _ = cKDTree(points).query(points, k=k + 1)
+    m = d[:, 1:].mean(axis=1)
+    return points[m <= m.mean() + n_std * m.std()]
+
+
+def object_body(points: np.ndarray, link: float, min_part: float, near: float = 0.25) -> np.ndarray:
+    """Boolean mask of the ``points`` in the object's body: connected components of the graph that
+    links centres closer than ``link`` x the median nearest-neighbour distance, kept when they hold
+    at least ``min_part`` of the largest component's points; a smaller piece is kept too where it
+    lies inside the kept body's bounding box grown by ``near`` x its size (a sparsely reconstructed
+    part of the object, not a stray Gaussian elsewhere in the scene)."""
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    if len(points) < 3:
+        return np.ones(len(points), dtype=bool)
+    tree = cKDTree(points)
+    d, _ = tree.query(points, k=2)
+    radius = link * float(np.median(d[:, 1]))
+    graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
+    _, labels = connected_components(graph, directed=False)
+    sizes = np.bincount(labels)
+    body = sizes[labels] >= min_part * sizes.max()
+    lo, hi = points[body].min(axis=0), points[body].max(axis=0)
+    pad = near * (hi - lo)
+    return body | ((points >= lo - pad) & (points <= hi + pad)).all(axis=1)
+
+
+def inside_hull(points: np.ndarray, queries: np.ndarray) -> np.ndarray:
+    """Boolean mask of ``queries`` inside the convex hull of ``points`` (Delaunay; degenerate sets:
+    nothing is inside)."""
+    from scipy.spatial import Delaunay, QhullError
+
+    if len(points) < 5:
+        return np.zeros(len(queries), dtype=bool)
+    try:
+        tri = Delaunay(points)
+    except QhullError:  # flat or collinear: no volume
+        return np.zeros(len(queries), dtype=bool)
+    return tri.find_simplex(queries) >= 0
+
+
+def hanging_below(means: np.ndarray, heights: np.ndarray, up: np.ndarray, removed: np.ndarray, candidates: np.ndarray, r: float) -> np.ndarray:
+    """Candidates reached from ``removed`` by steps down: each within horizontal distance ``d <= r``
+    of a removed (or already reached) Gaussian and lower than it by between ``d`` and ``2 r``
+    (see ``RemovalConfig.support_column``). A breadth-first growth over a k-d tree (scipy) of the
+    candidates' horizontal positions."""
+    from scipy.spatial import cKDTree
+
+    out = np.zeros(len(means), dtype=bool)
+    cand = np.flatnonzero(candidates & ~removed)
+    if not len(cand) or r <= 0:
+        return out
+    flat = means - np.outer(means @ up, up)  # positions in the support plane's directions
+    tree = cKDTree(flat[cand])
+    frontier = np.flatnonzero(removed)
+    while len(frontier):
+        reached = set()
+        for f, hits in zip(frontier, tree.query_ball_point(flat[frontier], r)):
+            if not hits:
+                continue
+            c = cand[hits]
+            c = c[~out[c]]
+            d = np.linalg.norm(flat[c] - flat[f], axis=1)
+            drop = heights[f] - heights[c]
+            reached.update(c[(drop >= d) & (drop > 0) & (drop <= 2 * r)].tolist())
+        frontier = np.array(sorted(reached), dtype=np.int64)
+        out[frontier] = True
+    return out
+
+
+def upright(gaussians: Gaussians, up: np.ndarray) -> np.ndarray:
+    """Gaussians whose variance along ``up`` exceeds their variance across it (the sum over the two
+    directions in the plane): shapes standing on a surface, never a splat lying in it."""
+    from inpaint360gs.render.projection import covariance_3d
+
+    with torch.no_grad():
+        cov = covariance_3d(gaussians.quats.detach().double(), gaussians.log_scales.detach().double()).cpu().numpy()
+    u = np.asarray(up, dtype=np.float64)
+    along = np.einsum("i,nij,j->n", u, cov, u)
+    return along > np.trace(cov, axis1=1, axis2=2) - along
+
+
+def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarray, bodies: list[np.ndarray], keep: np.ndarray,
+                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict) -> tuple[np.ndarray, list]:  # fmt: skip
+    """Step 4 (``RemovalConfig.footprint_margin``): ``remove`` plus every Gaussian in each object's
+    footprint column (not those in ``keep``: other objects), minus the support Gaussians the
+    selection took outside it. ``bodies``: per object, what steps 1-2 took; ``up`` a hint of the
+    support's normal (None: the cameras' up is not known and the column is skipped). Returns the
+    new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
+    from inpaint360gs.core.support import object_footprint
+
+    remove = remove.copy()
+    found = []
+    if up is None:  # no support plane (removal.json's "support" says why)
+        return remove, found
+    for i, body in enumerate(bodies):
+        try:
+            fp = object_footprint(means[body], opacities[body], means[~remove], opacities[~remove], up)
+        except ValueError as e:
+            counts.setdefault("footprint", []).append(f"skipped: {e}")
+            continue
+        h = fp.heights(means)
+        d = fp.distance(means)
+        column = (d <= cfg.footprint_margin * fp.size) & (h > -cfg.footprint_depth * fp.height) & (h <= FOOTPRINT_TOP * fp.height) & ~keep
+        support = remove & body & (d > cfg.support_reach * fp.size) & (np.abs(h) <= cfg.support_band * fp.height)
+        counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size})
+        remove = (remove | column) & ~support
+        found.append(fp)
+    return remove, found
