@@ -215,10 +215,11 @@ def breakdown_numba(g, cam, weights, repeats: int) -> dict[str, float]:
     import torch
 
     from inpaint360gs.render import numba_kernels as K
-    from inpaint360gs.render.numba_backend import _np32, _set_threads, prepare
+    from inpaint360gs.render.numba_arrays import set_numba_threads, to_f32
+    from inpaint360gs.render.numba_backend import prepare
     from inpaint360gs.render.numba_projection import project_and_shade_numba
 
-    _set_threads()
+    set_numba_threads()
     W, H = cam.width, cam.height
     params = g.map(lambda t: t.detach().requires_grad_(True))
 
@@ -228,7 +229,7 @@ def breakdown_numba(g, cam, weights, repeats: int) -> dict[str, float]:
         return (m2d, con, dep, rad), torch.cat([rgb, dep[:, None]], -1), torch.sigmoid(params.opacity_logits)
 
     (m2d, con, dep, rad), ch_t, op_t = proj()
-    ch = _np32(ch_t)
+    ch = to_f32(ch_t)
     args = (m2d, con, op_t, rad, dep, W, H)
     pk, offsets, gids, order, tiles_x = prepare(*args)
     img, tf, last, n_eval = K.forward(pk, ch, offsets, gids, order, numba.get_num_threads(), W, H, tiles_x)

@@ -14,6 +14,7 @@ import importlib
 import pkgutil
 from dataclasses import dataclass
 from functools import cache
+from pathlib import Path
 from typing import ClassVar
 
 import torch
@@ -60,12 +61,10 @@ class RasterizerBackend(abc.ABC):
 
 @cache
 def _registry() -> dict[str, RasterizerBackend]:
-    import inpaint360gs.render as pkg
-
     found = {}
-    for mod in pkgutil.iter_modules(pkg.__path__):
+    for mod in pkgutil.iter_modules([str(Path(__file__).resolve().parent)]):  # the backend files beside this one
         if mod.name.endswith("_backend"):
-            backend = importlib.import_module(f"{pkg.__name__}.{mod.name}").BACKEND
+            backend = importlib.import_module(f"{__package__}.{mod.name}").BACKEND
             found[backend.name] = backend
     return dict(sorted(found.items(), key=lambda kv: -kv[1].priority))
 

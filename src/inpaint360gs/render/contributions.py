@@ -171,9 +171,10 @@ def _contributions_numba(s: Splats, n: int, min_weight: float) -> Contributions:
     import numba
 
     from inpaint360gs.render import numba_contrib as NC
-    from inpaint360gs.render.numba_backend import _set_threads, prepare
+    from inpaint360gs.render.numba_arrays import set_numba_threads
+    from inpaint360gs.render.numba_backend import prepare
 
-    _set_threads()
+    set_numba_threads()
     pk, offsets, gids, order, tiles_x = prepare(s.means2d, s.conics, s.opacities, s.radii, s.depths, s.width, s.height)
     args = (pk, offsets, gids, order, numba.get_num_threads(), s.width, s.height, tiles_x)
     starts = np.concatenate([[0], np.cumsum(NC.tile_counts(*args))]).astype(np.int64)

@@ -14,17 +14,8 @@ import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.render.backends import RasterizerBackend, Splats
+from inpaint360gs.render.numba_arrays import set_numba_threads, to_f32
 from inpaint360gs.render.tiles import tile_grid
-
-
-def _set_threads() -> None:
-    import numba
-
-    numba.set_num_threads(max(1, min(torch.get_num_threads(), numba.config.NUMBA_NUM_THREADS)))
-
-
-def _np32(x: torch.Tensor) -> np.ndarray:
-    return np.ascontiguousarray(x.detach().cpu().numpy(), dtype=np.float32)
 
 
 MAX_TILE_LIST = 1 << 24  # the kernels keep per-pixel "last contributor" as a float32 offset into the tile's list
@@ -34,10 +25,10 @@ def prepare(means2d, conics, opacities, radii, depths, width: int, height: int):
     """Pack Gaussians and bin them into tiles -> (packed (N, 8), offsets, gauss ids, tile order, tiles_x) (numpy)."""
     from inpaint360gs.render import numba_kernels as K
 
-    m, q, o = _np32(means2d), _np32(conics), _np32(opacities)
+    m, q, o = to_f32(means2d), to_f32(conics), to_f32(opacities)
     tiles_x, tiles_y = tile_grid(width, height)
     r = np.ascontiguousarray(radii.detach().cpu().numpy(), dtype=np.int32)
-    offsets, gids = K.bin_gaussians(m, r, _np32(depths), tiles_x, tiles_y)
+    offsets, gids = K.bin_gaussians(m, r, to_f32(depths), tiles_x, tiles_y)
     counts = np.diff(offsets)
     if counts.size and int(counts.max()) >= MAX_TILE_LIST:
         raise InputError(f"more than {MAX_TILE_LIST} Gaussians overlap one 16x16 tile", "gaussians")
@@ -52,9 +43,9 @@ class _RasterizeNumba(torch.autograd.Function):
 
         from inpaint360gs.render import numba_kernels as K
 
-        _set_threads()
+        set_numba_threads()
         pk, offsets, gids, order, tiles_x = prepare(means2d, conics, opacities, radii, depths, width, height)
-        ch = _np32(channels)
+        ch = to_f32(channels)
         workers = numba.get_num_threads()
         img, t_final, last, _ = K.forward(pk, ch, offsets, gids, order, workers, width, height, tiles_x)
         ctx.state = (pk, ch, offsets, gids, order, width, height, tiles_x, t_final, last)
@@ -67,10 +58,10 @@ class _RasterizeNumba(torch.autograd.Function):
 
         from inpaint360gs.render import numba_kernels as K
 
-        _set_threads()
+        set_numba_threads()
         pk, ch, offsets, gids, order, width, height, tiles_x, t_final, last = ctx.state
-        d_img = np.zeros((height, width, ch.shape[1]), np.float32) if d_img is None else _np32(d_img)
-        d_alpha = np.zeros((height, width), np.float32) if d_alpha is None else _np32(d_alpha)
+        d_img = np.zeros((height, width, ch.shape[1]), np.float32) if d_img is None else to_f32(d_img)
+        d_alpha = np.zeros((height, width), np.float32) if d_alpha is None else to_f32(d_alpha)
         workers = numba.get_num_threads()
         rows = K.backward(pk, ch, offsets, gids, order, workers, width, height, tiles_x, t_final, last, d_img, d_alpha)
         g = torch.from_numpy(K.reduce_rows(rows, gids, pk.shape[0]))

@@ -23,11 +23,11 @@ import numpy as np
 import inpaint360gs.render.numba_cache  # noqa: F401  (sets the cache folder before the kernels are defined)
 from numba import njit, prange  # isort: skip
 
-from inpaint360gs.render.numba_kernels import _F_L, _F_ROWS, _F_T, _F_W, _OPTS, NPIX, U, _fwd_gaussian, _row_range, _run_workers
+from inpaint360gs.render.numba_kernels import _F_ROWS, _F_W, _OPTS, NPIX, U, _fwd_gaussian, _row_range, _run_workers, _start_forward_tile
 from inpaint360gs.render.tiles import TILE
 
 f32 = np.float32
-_ZERO, _ONE, _HALF = f32(0.0), f32(1.0), f32(0.5)
+_ZERO = f32(0.0)
 _U16 = U(16)
 
 
@@ -36,17 +36,7 @@ def _walk_tile(t, st, pk, offsets, gids, width, height, tiles_x, fill, start, pi
     """Walk tile ``t`` front to back (the forward kernel's loop); count its contributions or, with
     ``fill``, write them from index ``start``. Returns the count."""
     s, e = offsets[t], offsets[t + 1]
-    x_base = (t % tiles_x) * TILE
-    y_base = (t // tiles_x) * TILE
-    st[:] = _ZERO
-    n_alive = 0
-    for p in range(NPIX):
-        inside = (x_base + p % TILE < width) and (y_base + p // TILE < height)
-        st[_F_T + U(p)] = _ONE if inside else -_ONE  # pixels outside the image start stopped
-        st[_F_L + U(p)] = f32(-1.0)
-        n_alive += inside
-    xb = f32(x_base) + _HALF
-    yb = f32(y_base) + _HALF
+    x_base, y_base, xb, yb, n_alive = _start_forward_tile(t, st, width, height, tiles_x)
     n = 0
     k = s
     while k < e and n_alive > 0:

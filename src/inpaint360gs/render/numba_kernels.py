@@ -228,10 +228,10 @@ def _fwd_accumulate4(st, lo, hi, c0, c1, c2, c3):
 
 
 @njit(inline="always", **_OPTS)
-def _forward_tile(t, st, pk, channels, offsets, gids, width, height, tiles_x, img, t_final, last_out):
-    """Composite tile ``t`` front to back into the image rows it covers; returns the pixel evaluations done."""
-    C = channels.shape[1]
-    s, e = offsets[t], offsets[t + 1]
+def _start_forward_tile(t, st, width, height, tiles_x):
+    """Reset the forward state ``st`` for tile ``t``: transmittance 1 inside the image (pixels outside
+    start stopped, -1), no last contributor. Returns (x_base, y_base, xb, yb, pixels alive), xb and yb
+    the centre of the tile's first pixel. Shared by the forward kernel and :mod:`.numba_contrib`."""
     x_base = (t % tiles_x) * TILE
     y_base = (t // tiles_x) * TILE
     st[:] = _ZERO
@@ -243,6 +243,15 @@ def _forward_tile(t, st, pk, channels, offsets, gids, width, height, tiles_x, im
         n_alive += inside
     xb = f32(x_base) + _HALF  # pixel centres, see camera.py
     yb = f32(y_base) + _HALF
+    return x_base, y_base, xb, yb, n_alive
+
+
+@njit(inline="always", **_OPTS)
+def _forward_tile(t, st, pk, channels, offsets, gids, width, height, tiles_x, img, t_final, last_out):
+    """Composite tile ``t`` front to back into the image rows it covers; returns the pixel evaluations done."""
+    C = channels.shape[1]
+    s, e = offsets[t], offsets[t + 1]
+    x_base, y_base, xb, yb, n_alive = _start_forward_tile(t, st, width, height, tiles_x)
     evals = 0
     k = s
     while k < e and n_alive > 0:  # stop the tile once every pixel has stopped

@@ -19,7 +19,7 @@ import inpaint360gs.render.numba_cache  # noqa: F401  (sets the cache folder bef
 from numba import njit, prange  # isort: skip
 
 from inpaint360gs.core.camera import Camera
-from inpaint360gs.render.numba_backend import _np32, _set_threads
+from inpaint360gs.render.numba_arrays import set_numba_threads, to_f32
 from inpaint360gs.render.sh import SH_C0, SH_C1, SH_C2, SH_C3
 
 # no fastmath: radii and culling must match the reference. It also keeps prange safe for cold/warm-cache
@@ -303,8 +303,8 @@ def _camera_vector(cam: Camera) -> np.ndarray:
 class _ProjectNumba(torch.autograd.Function):
     @staticmethod
     def forward(ctx, means, quats, log_scales, sh, cam: Camera, degree: int, near: float, far: float, eps2d: float):
-        _set_threads()
-        args = (_np32(means), _np32(quats), _np32(log_scales), _np32(sh), degree, _camera_vector(cam), cam.width, cam.height, near, far, eps2d)
+        set_numba_threads()
+        args = (to_f32(means), to_f32(quats), to_f32(log_scales), to_f32(sh), degree, _camera_vector(cam), cam.width, cam.height, near, far, eps2d)
         means2d, conics, depths, radii, rgb = project_forward(*args)
         ctx.args = args
         ctx.dtypes = (means.dtype, quats.dtype, log_scales.dtype, sh.dtype)
@@ -315,12 +315,12 @@ class _ProjectNumba(torch.autograd.Function):
 
     @staticmethod
     def backward(ctx, g_m2d, g_con, g_dep, g_rgb, _g_radii):
-        _set_threads()
+        set_numba_threads()
         a = ctx.args
         n = a[0].shape[0]
 
         def grad(g, shape):
-            return np.zeros(shape, np.float32) if g is None else _np32(g)
+            return np.zeros(shape, np.float32) if g is None else to_f32(g)
 
         out = project_backward(*a, grad(g_m2d, (n, 2)), grad(g_con, (n, 3)), grad(g_dep, (n,)), grad(g_rgb, (n, 3)))
         grads = tuple(torch.from_numpy(g).to(dt) for g, dt in zip(out, ctx.dtypes))
