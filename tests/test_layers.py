@@ -1,6 +1,7 @@
 """The package's floors (docs/architecture.md, "Layers"): a module may import only from its own
 package or a lower floor; the ground floor ``core`` imports nothing else of the package; the
-library never imports the dataset tools or the CLI. Imports inside functions count too."""
+library never imports the dataset tools or the CLI; no two modules import each other, directly or
+round a longer loop, inside a package or across. Imports inside functions count too."""
 
 from __future__ import annotations
 
@@ -87,3 +88,73 @@ def test_the_layer_check_catches_an_upward_import(tmp_path):
     p.write_text("def f():\n    from inpaint360gs.gs.trainer import train\n")
     (line, mod), *_ = _imports(p)
     assert (line, _package_of(mod)) == (2, "gs") and FLOORS["gs"] > FLOORS["render"]
+
+
+def _module_name(path: Path, pkg_dir: Path) -> str:
+    parts = list(path.relative_to(pkg_dir.parent).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _module_graph(pkg_dir: Path) -> dict[str, set[str]]:
+    """Module -> the modules of the package it imports (``from a import b`` counts as ``a.b`` where
+    that is a module, else as ``a``; relative imports resolved; a package is its ``__init__``)."""
+    paths = {_module_name(p, pkg_dir): p for p in sorted(pkg_dir.rglob("*.py"))}
+    graph = {}
+    for name, path in paths.items():
+        here = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+        found = set()
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                found |= {a.name for a in node.names}
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    base = ".".join(here[: len(here) - node.level + 1] + ([node.module] if node.module else []))
+                found |= {f"{base}.{a.name}" if f"{base}.{a.name}" in paths else base for a in node.names}
+        graph[name] = {m for m in found if m in paths and m != name}
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import loops of ``graph``: one path per strongly connected set of two or more modules."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            members = stack[stack.index(v) :]
+            del stack[stack.index(v) :]
+            if len(members) > 1:
+                found.append(sorted(members))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_import_cycles():
+    loops = _cycles(_module_graph(PKG))
+    assert not loops, "modules that import each other (directly or round a loop):\n" + "\n".join(" <-> ".join(c) for c in loops)
+
+
+def test_the_cycle_check_catches_a_loop_inside_a_package(tmp_path):
+    """The check itself: a -> b lazily, b -> a at the top (relative), c outside the loop."""
+    pkg = tmp_path / "p"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "sub" / "a.py").write_text("def f():\n    from p.sub import b\n")
+    (pkg / "sub" / "b.py").write_text("from .a import f\nfrom p.sub import c\n")
+    (pkg / "sub" / "c.py").write_text("")
+    assert _cycles(_module_graph(pkg)) == [["p.sub.a", "p.sub.b"]]
