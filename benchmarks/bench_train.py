@@ -19,10 +19,12 @@ from pathlib import Path
 
 import pandas as pd
 
-# The benchmark's training budget for 2 CPU cores (the same as workflow/config/config.yaml's `train`).
-DEFAULT_ITERATIONS = 3000
+from inpaint360gs.pipeline.presets import PRESETS
+
+# The benchmark's training budget for 2 CPU cores: the `cpu` preset (workflow/config/config.yaml's `train` too).
+DEFAULT_ITERATIONS = PRESETS["cpu"].iterations
 DEFAULT_REDUCED_ITERATIONS = 1000
-MAX_GAUSSIANS = 120_000
+MAX_GAUSSIANS = PRESETS["cpu"].max_gaussians
 
 
 def main() -> int:

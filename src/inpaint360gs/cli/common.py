@@ -315,7 +315,9 @@ def set_threads(n: int) -> None:
         pass
 
 
-def add_backend_argument(parser: argparse.ArgumentParser, default: str = "auto") -> None:
+def add_backend_argument(parser: argparse.ArgumentParser, default: str | None = "auto") -> None:
+    """``--backend``; ``default`` None: the preset's (``inpaint360gs run --preset``)."""
     from inpaint360gs.render.backends import backend_choices
 
-    parser.add_argument("--backend", default=default, choices=backend_choices(), help=f"rasterizer backend (default {default})")
+    said = "the preset's" if default is None else default
+    parser.add_argument("--backend", default=default, choices=backend_choices(), help=f"rasterizer backend (default {said})")

@@ -1,4 +1,4 @@
-"""``inpaint360gs run SCENE OUT [--click VIEW:X,Y ...] [--model PLY] [--until STAGE]``: the whole method
+"""``inpaint360gs run SCENE OUT [--click VIEW:X,Y ...] [--model PLY] [--until STAGE] [--preset cpu|gpu|paper]``: the whole method
 on one scene folder for people without Snakemake (paper Alg. 1; thin shell over
 :class:`inpaint360gs.pipeline.run.Runner`). One sub-folder per stage under OUT; a stage whose inputs
 and settings did not change since the last run is skipped. Clicks default to ``scene.json``'s. A scene
@@ -14,6 +14,8 @@ from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from inpaint360gs.cli.inpaint import add_inpaint_arguments
     from inpaint360gs.cli.remove import add_click_arguments
+    from inpaint360gs.distill.config import DistillConfig
+    from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS
     from inpaint360gs.pipeline.run import STAGES
     from inpaint360gs.segment.base import DEFAULT_SEGMENTER, segmenter_names
 
@@ -22,42 +24,45 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_click_arguments(parser)
     parser.add_argument("--model", type=existing_file, default=None, help="a trained 3DGS PLY of this scene: skip training")
     parser.add_argument("--until", default=STAGES[-1], choices=STAGES, help="stop after this stage (default: the last)")
-    parser.add_argument("--iterations", type=positive_int, default=3000, help="3DGS steps (default 3000 with the schedule scaled: the CPU budget; the original is 30000)")
-    parser.add_argument("--max-gaussians", type=nonneg_int, default=120_000, help="3DGS cap (default 120000; 0: none)")
+    presets = "; ".join(f"{p.name}: {p.summary}" for p in PRESETS.values())
+    parser.add_argument("--preset", default=DEFAULT_PRESET, choices=list(PRESETS), help=f"training budget and backend (default {DEFAULT_PRESET}; {presets})")
+    parser.add_argument("--iterations", type=positive_int, default=None, help="3DGS steps, the schedule scaled to them (default: the preset's)")
+    parser.add_argument("--max-gaussians", type=nonneg_int, default=None, help="3DGS cap (default: the preset's; 0: none)")
     parser.add_argument("--segmenter", default=DEFAULT_SEGMENTER, choices=segmenter_names(), help=f"2D masks (default {DEFAULT_SEGMENTER}; oracle reads gt/ of synthetic scenes)")
     parser.add_argument("--association", default="kom", choices=["kom", "tracker"], help="Key Object Management (default) or 2D tracking (ablation a)")
-    parser.add_argument("--distill-iterations", type=positive_int, default=2000)
+    parser.add_argument("--distill-iterations", type=positive_int, default=DistillConfig().iterations)
     add_inpaint_arguments(parser)
     parser.add_argument("--seed", type=nonneg_int, default=0)
     parser.add_argument("--resize", type=positive_int, default=1, help="work on the images downscaled by this factor (images_<R>/ when present, else "
                         "images/ shrunk on read); clicks stay in the coordinates of images/ (default 1)")
     parser.add_argument("--no-progress", action="store_true")
-    add_backend_argument(parser)
+    add_backend_argument(parser, default=None)
     add_threads_argument(parser)
 
 
-def run(args: argparse.Namespace) -> int:
+def run_config(args: argparse.Namespace):
+    """The run's settings (:class:`RunConfig`): the preset's, with what the options give."""
     from inpaint360gs.cli.inpaint import inpaint_config
-    from inpaint360gs.distill.config import DistillConfig
-    from inpaint360gs.gs.config import ORIGINAL_ITERATIONS, DensifyConfig, TrainConfig
+    from inpaint360gs.pipeline.presets import get_preset
+
+    preset = get_preset(args.preset)
+    backend = preset.backend if args.backend is None else args.backend
+    return preset.run_config(
+        seed=args.seed, backend=backend, iterations=args.iterations, max_gaussians=args.max_gaussians, distill_iterations=args.distill_iterations,
+        segmenter=args.segmenter, association=args.association, inpaint=inpaint_config(args, args.seed, backend),
+    )  # fmt: skip
+
+
+def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.pipeline.run import RunConfig, Runner
+    from inpaint360gs.pipeline.run import Runner
     from inpaint360gs.remove.select import Click
-    from inpaint360gs.associate.config import AssociationConfig
 
     set_threads(args.threads)
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "--model": args.model}, replaced=False)  # stages replace their sub-folders only
     clicks = [Click.parse(c) for c in args.click]
     scene = load_scene(args.scene, resize=args.resize, load_masks=False)
-    train = TrainConfig(
-        iterations=args.iterations, seed=args.seed, backend=args.backend, schedule_scale=args.iterations / ORIGINAL_ITERATIONS,
-        densify=DensifyConfig(max_gaussians=args.max_gaussians),
-    )  # fmt: skip
-    cfg = RunConfig(
-        train=train, segmenter=args.segmenter, association=AssociationConfig(method=args.association).resolved(),
-        distill=DistillConfig(iterations=args.distill_iterations, seed=args.seed, backend=args.backend),
-        inpaint=inpaint_config(args, args.seed, args.backend), seed=args.seed, backend=args.backend,
-    )  # fmt: skip
+    cfg = run_config(args)
     runner = Runner(scene, args.out, cfg, model=args.model, clicks=clicks, ids=args.id, progress=not args.no_progress, announce=True)
     for stage, what in runner.run(args.until):
         print(f"{stage:10s} {what}")
