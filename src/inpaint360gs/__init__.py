@@ -1,4 +1,17 @@
-"""Inpaint360GS: object-aware 3D inpainting with Gaussian Splatting in 360° scenes (WACV 2026)."""
+"""Inpaint360GS: object-aware 3D inpainting with Gaussian Splatting in 360° scenes (WACV 2026).
+
+The API: :func:`load_scene` reads a scene folder, :func:`remove_object` runs the method on it (the
+same run as ``inpaint360gs run``) and returns a :class:`RemovalResult` (folders, what each stage did,
+stage seconds); :data:`PRESETS` are the settings it runs with (``cpu``, ``gpu``, ``paper``).
+Importing the package is cheap: the API's modules load on first use.
+
+>>> import inpaint360gs
+>>> sorted(inpaint360gs.PRESETS)
+['cpu', 'gpu', 'paper']
+>>> scene = inpaint360gs.load_scene("data/kitchen")  # doctest: +SKIP
+>>> result = inpaint360gs.remove_object(scene, "out/kitchen", clicks=[("IMG_0003.png", 120, 88)])  # doctest: +SKIP
+>>> result.inpainted / "grid.png", result.seconds["train"]  # doctest: +SKIP
+"""
 
 import os as _os
 
@@ -16,3 +29,22 @@ _os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 _os.environ.setdefault("MKL_CBWR", "AUTO")
 
 __version__ = "0.1.0"
+
+__all__ = ["PRESETS", "Preset", "RemovalResult", "get_preset", "load_scene", "remove_object", "__version__"]
+
+
+def __getattr__(name: str):
+    """The API's names, imported on first use (``import inpaint360gs`` loads neither torch nor numba)."""
+    if name in ("load_scene", "remove_object", "RemovalResult"):
+        from inpaint360gs.pipeline import api
+
+        return getattr(api, name)
+    if name in ("PRESETS", "Preset", "get_preset"):
+        from inpaint360gs.pipeline import presets
+
+        return getattr(presets, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,104 @@
+"""The Python API of ``import inpaint360gs`` (pipeline/api.py, pipeline/presets.py): cheap to import,
+its docstring example runs, ``remove_object`` runs the real stages on a tiny scene, and the presets
+are the CLI's settings."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import doctest
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from scene_builder import blobs_model, blobs_scene
+
+import inpaint360gs
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.ply import write_ply
+
+SRC = Path(inpaint360gs.__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory) -> tuple[Path, Path]:
+    """A 32x24 blobs scene and its exact model (blob k = object k after association), as tests/test_run.py's."""
+    base = tmp_path_factory.mktemp("api")
+    root = blobs_scene(base / "scene", n_views=10, width=32, height=24, f=27.5)[0]
+    write_ply(base / "model.ply", blobs_model()[0])
+    return root, base / "model.ply"
+
+
+def test_import_loads_no_heavy_module():
+    code = "import sys, inpaint360gs; print(sorted(m for m in ('torch', 'torchvision', 'numba', 'numpy') if m in sys.modules))"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(SRC), os.environ.get("PYTHONPATH", "")])}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_the_package_docstring_example_runs():
+    res = doctest.testmod(inpaint360gs, verbose=False)
+    assert res.attempted >= 1 and res.failed == 0
+
+
+def test_every_exported_name_resolves_and_is_documented():
+    for name in inpaint360gs.__all__:
+        obj = getattr(inpaint360gs, name)
+        if callable(obj):
+            assert obj.__doc__ and len(obj.__doc__.strip()) > 20, name
+    with pytest.raises(AttributeError):
+        inpaint360gs.no_such_name  # noqa: B018
+
+
+def test_the_cli_default_is_the_cpu_preset_and_options_override_it(tiny, tmp_path):
+    from inpaint360gs.cli.run import add_arguments, run_config
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    cpu = inpaint360gs.PRESETS["cpu"]
+    assert run_config(parser.parse_args([str(tiny[0]), str(tmp_path / "o")])) == cpu.run_config()
+    gpu = run_config(parser.parse_args([str(tiny[0]), str(tmp_path / "o"), "--preset", "gpu", "--seed", "3"]))
+    assert gpu == inpaint360gs.PRESETS["gpu"].run_config(seed=3)
+    assert (gpu.train.iterations, gpu.train.schedule_scale, gpu.train.densify.max_gaussians, gpu.backend) == (30000, 1.0, 0, "gsplat")
+    mine = run_config(parser.parse_args([str(tiny[0]), str(tmp_path / "o"), "--preset", "gpu", "--iterations", "600", "--backend", "torch"]))
+    assert (mine.train.iterations, mine.train.schedule_scale, mine.distill.backend, mine.inpaint.refine.backend) == (600, 0.02, "torch", "torch")
+    assert (cpu.iterations, cpu.max_gaussians) == (3000, 120_000)
+    with pytest.raises(InputError, match="unknown preset"):
+        inpaint360gs.get_preset("fast")
+
+
+def test_remove_object_runs_the_stages_and_reports_them(tiny, tmp_path):
+    root, model = tiny
+    cfg = inpaint360gs.get_preset("cpu").run_config()
+    cfg = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=20))
+    out = tmp_path / "out"
+    res = inpaint360gs.remove_object(str(root), out, ids=[1], preset=cfg, model=model, until="remove")
+    assert res.stages == {"train": "given", "segment": "ran", "associate": "ran", "distill": "ran", "remove": "ran"}
+    assert set(res.seconds) == {"segment", "associate", "distill", "remove"} and all(t >= 0 for t in res.seconds.values())
+    assert (res.removed / "removal.json").is_file() and res.out == out and res.config is cfg
+
+    scene = inpaint360gs.load_scene(root)
+    again = inpaint360gs.remove_object(scene, out, ids=[1], preset=cfg, model=model, until="remove")
+    assert set(again.stages.values()) == {"given", "up to date"} and again.seconds == res.seconds
+
+
+def test_remove_object_refuses_bad_input_before_any_stage(tiny, tmp_path):
+    root, model = tiny
+    with pytest.raises(InputError, match="not \\(view, x, y\\)"):
+        inpaint360gs.remove_object(root, tmp_path / "a", clicks=[("IMG_001.png", 3)], model=model)
+    with pytest.raises(InputError, match="unknown preset"):
+        inpaint360gs.remove_object(root, tmp_path / "b", ids=[1], preset="fast", model=model)
+    with pytest.raises(InputError, match="scene folder not found"):
+        inpaint360gs.load_scene(tmp_path / "nowhere")
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_the_workflow_trains_with_the_cpu_preset():
+    """workflow/config/config.yaml repeats the cpu preset's budget (Snakemake reads YAML): it must agree."""
+    import yaml
+
+    train = yaml.safe_load((SRC.parent / "workflow" / "config" / "config.yaml").read_text())["train"]
+    cpu = inpaint360gs.PRESETS["cpu"]
+    assert (train["iterations"], train["max_gaussians"], train["schedule_scale"], train["backend"]) == (cpu.iterations, cpu.max_gaussians, "auto", cpu.backend)
