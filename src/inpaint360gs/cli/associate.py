@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import check_apart, existing_dir, existing_file, fraction, nonneg_int, output_dir, positive_int
+from inpaint360gs.cli.common import add_scene_arguments, check_apart, existing_dir, existing_file, fraction, nonneg_int, output_dir, positive_int
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -31,8 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="keep objects apart that more views segmented as one than as two (default: join them after the pass)")
     parser.add_argument("--patch", type=positive_int, default=d.patch, help=f"patch size in pixels (default {d.patch})")
     parser.add_argument("--min-segment-pixels", type=nonneg_int, default=d.min_segment_pixels)
-    parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor of the scene")
-    parser.add_argument("--llffhold", type=nonneg_int, default=8, help="every N-th non-test view is held out (default 8, as in segment)")
+    add_scene_arguments(parser)
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
 
 

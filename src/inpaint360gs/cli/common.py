@@ -280,12 +280,20 @@ def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | P
 # --- threads -----------------------------------------------------------------------------------------
 
 
-def add_scene_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--resize`` and ``--llffhold``: how a stage reads its scene folder (``io.scene.load_scene``)."""
-    from inpaint360gs.core.layout import LLFFHOLD
+def add_scene_arguments(parser: argparse.ArgumentParser, *, llffhold: bool = True, resize_note: str = "") -> None:
+    """``--resize`` and (with ``llffhold``) ``--llffhold``: how a stage reads its scene folder
+    (``io.scene.load_scene``, whose defaults they take); ``resize_note`` ends ``--resize``'s help."""
+    import inspect
 
-    parser.add_argument("--resize", type=positive_int, default=1, help="work on the images downscaled by this factor (images_<R>/ when present)")
-    parser.add_argument("--llffhold", type=nonneg_int, default=LLFFHOLD, help=f"every Nth non-test view is held out (default {LLFFHOLD}; 0: none)")
+    from inpaint360gs.io.scene import load_scene
+
+    defaults = {k: p.default for k, p in inspect.signature(load_scene).parameters.items()}
+    note = f"; {resize_note}" if resize_note else ""
+    parser.add_argument("--resize", type=positive_int, default=defaults["resize"],
+                        help=f"work on the images downscaled by this factor (images_<R>/ when present; default {defaults['resize']}{note})")  # fmt: skip
+    if llffhold:
+        parser.add_argument("--llffhold", type=nonneg_int, default=defaults["llffhold"],
+                            help=f"every Nth non-test view is held out of training (default {defaults['llffhold']}; 0: none; the later stages take the value training took)")  # fmt: skip
 
 
 def add_threads_argument(parser: argparse.ArgumentParser) -> None:

@@ -12,6 +12,7 @@ import argparse
 
 from inpaint360gs.cli.common import (
     add_backend_argument,
+    add_scene_arguments,
     add_threads_argument,
     check_apart,
     existing_dir,
@@ -47,8 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--min-weight", type=number(float, lo=0.0, hi=1.0, hi_open=True), default=d.min_weight,
         help="drop cached compositing weights below this (default 0: exact; see README on what pruning costs)",
     )  # fmt: skip
-    parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor (masks must have the views' size)")
-    parser.add_argument("--llffhold", type=nonneg_int, default=8, help="every N-th non-test view is held out (default 8, as in training)")
+    add_scene_arguments(parser)
     add_backend_argument(parser, d.backend)
     parser.add_argument("--seed", type=nonneg_int, default=d.seed)
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it holds a previous run")

@@ -11,7 +11,7 @@ import argparse
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from inpaint360gs.cli.common import add_threads_argument, existing_dir, existing_file, output_file, positive_int
+    from inpaint360gs.cli.common import add_scene_arguments, add_threads_argument, existing_dir, existing_file, output_file
     from inpaint360gs.metrics.weights import INCEPTION_ENV
 
     parser.add_argument("renders", type=existing_dir, help="one PNG per test_ view, named like the test image (test_0003.png)")
@@ -19,8 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("out", type=output_file, help="metrics JSON to write")
     parser.add_argument("--nets", default="vgg,alex", help="LPIPS networks, comma-separated (default vgg,alex; lpips = vgg as the paper's code)")
     parser.add_argument("--inception-weights", type=existing_file, default=None, help=f"pt_inception-2015-12-05 weights for FID (default ${INCEPTION_ENV}; without them fid is null with the reason)")
-    parser.add_argument("--resize", type=positive_int, default=1,
-                        help="image downscale factor of the scene: the renders have the test views' size at it (as given to `render --resize`)")
+    add_scene_arguments(parser, llffhold=False, resize_note="the renders have the test views' size at it, as given to `render --resize`")
     add_threads_argument(parser)
 
 

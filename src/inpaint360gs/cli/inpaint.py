@@ -10,6 +10,7 @@ import argparse
 
 from inpaint360gs.cli.common import (
     add_backend_argument,
+    add_scene_arguments,
     add_threads_argument,
     check_apart,
     existing_dir,
@@ -69,8 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("out", type=output_dir, help="output folder: point_cloud.ply, renders/test/, grid.png, trajectory.gif, inpaint.json")
     add_inpaint_arguments(parser)
     parser.add_argument("--seed", type=nonneg_int, default=0)
-    parser.add_argument("--resize", type=positive_int, default=1)
-    parser.add_argument("--llffhold", type=nonneg_int, default=8)
+    add_scene_arguments(parser)
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     parser.add_argument("--no-progress", action="store_true")
     add_backend_argument(parser)

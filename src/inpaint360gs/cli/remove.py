@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, check_apart, existing_dir, fraction, nonneg_int, output_dir, positive_int, set_threads
+from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, add_threads_argument, check_apart, existing_dir, fraction, output_dir, positive_int, set_threads
 
 
 def add_click_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,8 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     column.add_argument("--no-support-column", dest="support_column", action="store_const", const=None,
                         help="do not (the authors' code)")
     parser.add_argument("--protect-background", type=fraction, default=None, metavar="P", help="the hull step keeps Gaussians whose background probability exceeds P (default: off, as the authors' code)")
-    parser.add_argument("--resize", type=positive_int, default=1)
-    parser.add_argument("--llffhold", type=nonneg_int, default=8)
+    add_scene_arguments(parser)
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     add_backend_argument(parser)
     add_threads_argument(parser)

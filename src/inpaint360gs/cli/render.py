@@ -11,13 +11,13 @@ import argparse
 
 from inpaint360gs.cli.common import (
     add_backend_argument,
+    add_scene_arguments,
     add_threads_argument,
     check_apart,
     existing_dir,
     existing_file,
     nonneg_int,
     output_dir,
-    positive_int,
     set_threads,
 )
 
@@ -27,8 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scene", type=existing_dir, help="scene folder whose cameras to render")
     parser.add_argument("out", type=output_dir, help="output folder (created atomically)")
     parser.add_argument("--split", default="test", choices=["train", "holdout", "test", "all"], help="which views (default test)")
-    parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor")
-    parser.add_argument("--llffhold", type=nonneg_int, default=8)
+    add_scene_arguments(parser)
     add_backend_argument(parser)
     parser.add_argument("--sh-degree", type=nonneg_int, default=None, help="SH degree to use (default: all the model holds)")
     parser.add_argument("--white-background", action="store_true")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import add_backend_argument, add_threads_argument, check_apart, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
+from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, add_threads_argument, check_apart, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -33,8 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--distill-iterations", type=positive_int, default=DistillConfig().iterations)
     add_inpaint_arguments(parser)
     parser.add_argument("--seed", type=nonneg_int, default=0)
-    parser.add_argument("--resize", type=positive_int, default=1, help="work on the images downscaled by this factor (images_<R>/ when present, else "
-                        "images/ shrunk on read); clicks stay in the coordinates of images/ (default 1)")
+    add_scene_arguments(parser, llffhold=False, resize_note="else images/ shrunk on read; clicks stay in the coordinates of images/")
     parser.add_argument("--no-progress", action="store_true")
     add_backend_argument(parser, default=None)
     add_threads_argument(parser)

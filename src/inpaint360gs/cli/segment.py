@@ -14,6 +14,7 @@ import argparse
 
 from inpaint360gs.cli.common import (
     add_backend_argument,
+    add_scene_arguments,
     add_threads_argument,
     check_apart,
     existing_dir,
@@ -39,8 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("out", type=output_dir, help="output folder: <stem>.png per training view, segment.json (created atomically)")
     parser.add_argument("--segmenter", default=DEFAULT_SEGMENTER, choices=segmenter_names(), help=f"how to get the masks (default {DEFAULT_SEGMENTER})")
     parser.add_argument("--seed", type=nonneg_int, default=0, help="seed (geometric: ground-plane RANSAC; oracle: damage)")
-    parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor (the one the model was trained at)")
-    parser.add_argument("--llffhold", type=nonneg_int, default=8, help="every N-th non-test view is held out (default 8, as in training)")
+    add_scene_arguments(parser)
     parser.add_argument("--overwrite", action="store_true", help="replace OUT if it exists")
     parser.add_argument("--allow-unregistered", action="store_true", help="warn about, instead of rejecting, images not in sparse/0")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")

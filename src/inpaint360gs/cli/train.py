@@ -6,6 +6,7 @@ import argparse
 
 from inpaint360gs.cli.common import (
     add_backend_argument,
+    add_scene_arguments,
     add_threads_argument,
     check_apart,
     existing_dir,
@@ -42,8 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--max-gaussians", type=nonneg_int, default=d.densify.max_gaussians,
         help="cap on the Gaussian count during densification, largest gradients first (default 0: no cap, the original)",
     )  # fmt: skip
-    parser.add_argument("--resize", type=positive_int, default=1, help="image downscale factor (uses images_<R>/ when present)")
-    parser.add_argument("--llffhold", type=nonneg_int, default=8, help="every N-th non-test view is held out for evaluation (default 8; 0: none)")
+    add_scene_arguments(parser)
     add_backend_argument(parser, d.backend)
     parser.add_argument("--seed", type=nonneg_int, default=d.seed)
     parser.add_argument("--sh-degree", type=nonneg_int, default=d.sh_degree, help="highest SH degree (default 3)")
