@@ -138,3 +138,19 @@ def test_suites_and_the_realistic_familys_own_poses(tmp_path):
     out = p.stdout + p.stderr
     assert count(out, "synth_scene") == len(suite_scenes("test")) and count(out, "colmap_scene") == 0
     assert "dozer-test1" in out and "dozer-dev1" not in out
+
+
+def test_the_method_list_is_the_one_of_common_smk():
+    """The methods are defined in workflow/rules/common.smk (METHODS); the config schema's enum and the
+    default config's list name the same ones, in the same order."""
+    import ast
+
+    import yaml
+
+    text = (ROOT / "workflow" / "rules" / "common.smk").read_text()
+    start = text.index("METHODS = {")
+    block = ast.parse(text[start : text.index("\n}\n", start) + 3]).body[0].value
+    defined = [k.value for k in block.keys]
+    schema = yaml.safe_load((ROOT / "workflow" / "config" / "config.schema.yaml").read_text())
+    assert schema["properties"]["methods"]["items"]["enum"] == defined
+    assert yaml.safe_load((ROOT / "workflow" / "config" / "config.yaml").read_text())["methods"] == defined

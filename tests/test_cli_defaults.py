@@ -1,0 +1,127 @@
+"""Each default once: every option of every ``inpaint360gs`` subcommand that sets a stage's setting
+defaults to that setting's config field (or library function parameter). An option left None takes
+the config's own (resolved) value or the preset's; options that are no setting are listed apart."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib
+import inspect
+
+import pytest
+
+from inpaint360gs.associate.config import AssociationConfig
+from inpaint360gs.cli import STAGES
+from inpaint360gs.distill.config import DistillConfig
+from inpaint360gs.evaluate.stage import evaluate_renders
+from inpaint360gs.gs.config import DensifyConfig, TrainConfig
+from inpaint360gs.inpaint.refine import RefineConfig
+from inpaint360gs.inpaint.stage import InpaintConfig
+from inpaint360gs.io.scene import load_scene
+from inpaint360gs.pipeline.run import STAGES as RUN_STAGES
+from inpaint360gs.pipeline.run import RunConfig
+from inpaint360gs.remove.config import RemovalConfig
+from inpaint360gs.remove.stage import removal_stage
+from inpaint360gs.render.api import render
+from inpaint360gs.segment.cluster3d import ClusterConfig
+from inpaint360gs.segment.geometric import GeometricConfig
+from inpaint360gs.segment.oracle import OracleConfig
+from inpaint360gs.segment.sam import SamConfig
+from inpaint360gs.views.virtual import VirtualViewsConfig
+
+# where each subcommand's settings live, searched in this order (nested dataclasses after their owner)
+SOURCES = {
+    "train": [TrainConfig],
+    "segment": [GeometricConfig, ClusterConfig, OracleConfig, SamConfig, RunConfig],
+    "render": [render],
+    "associate": [AssociationConfig],
+    "remove": [RemovalConfig, removal_stage],
+    "inpaint": [InpaintConfig],
+    "run": [RunConfig, InpaintConfig],
+    "evaluate": [evaluate_renders],
+    "distill": [DistillConfig],
+    "capture-scores": [],
+    "table": [],
+}
+# option -> (where, field) when the names differ
+RENAMED = {
+    "densify_grad_threshold": (DensifyConfig, "grad_threshold"),
+    "max_gaussians": (DensifyConfig, "max_gaussians"),
+    "distill_iterations": (DistillConfig, "iterations"),
+    "association": (AssociationConfig, "method"),
+    "virtual_views": (VirtualViewsConfig, "num_views"),
+    "refine_variant": (RefineConfig, "variant"),
+    "inpaint_iterations": (RefineConfig, "iterations"),
+    "supervision": (RefineConfig, "supervision"),
+    "sam_stability_thresh": (SamConfig, "stability_score_thresh"),
+    "sam_min_region_area": (SamConfig, "min_mask_region_area"),
+    "nets": (evaluate_renders, "nets"),
+}
+# options that are no stage setting (what to read, where to write, how to run, what to show)
+NOT_SETTINGS = {
+    "overwrite", "no_progress", "threads", "resume", "allow_unregistered", "click", "id", "model", "until", "preset", "split",
+    "white_background", "inception_weights", "inpainted", "figure", "views_capture", "sam_encoder", "sam_decoder",
+    "no_protect_support",  # a switch: protect_support 0
+}  # fmt: skip
+
+
+def _defaults(source) -> dict[str, object]:
+    """Field (or parameter) -> default of a dataclass (nested ones after it) or a function."""
+    if not dataclasses.is_dataclass(source):
+        return {k: p.default for k, p in inspect.signature(source).parameters.items() if p.default is not inspect.Parameter.empty}
+    out, nested = {}, []
+    for f in dataclasses.fields(source):
+        value = f.default if f.default is not dataclasses.MISSING else f.default_factory() if f.default_factory is not dataclasses.MISSING else None
+        out[f.name] = value
+        if dataclasses.is_dataclass(value):
+            nested.append(type(value))
+    for cls in nested:
+        out = {**_defaults(cls), **out}
+    return out
+
+
+def _expected(stage: str, dest: str):
+    """(found, the default the option must have)."""
+    if dest in ("resize", "llffhold"):
+        return True, _defaults(load_scene)[dest]
+    if dest in RENAMED:
+        where, name = RENAMED[dest]
+        return True, _defaults(where)[name]
+    name, flip = (dest[3:], True) if dest.startswith("no_") else (dest.removeprefix("sam_"), False)
+    for source in SOURCES[stage]:
+        d = _defaults(source)
+        if name in d:
+            return True, (not d[name]) if flip else d[name]
+    return False, None
+
+
+def _options(stage: str) -> list[argparse.Action]:
+    parser = argparse.ArgumentParser()
+    importlib.import_module(STAGES[stage][0]).add_arguments(parser)
+    return [a for a in parser._actions if a.option_strings and a.dest != "help"]
+
+
+@pytest.mark.parametrize("stage", list(STAGES))
+def test_every_option_defaults_to_its_setting(stage):
+    bad = []
+    for a in _options(stage):
+        dest = "views_capture" if (stage, a.dest) == ("capture-scores", "views") else a.dest
+        if dest in NOT_SETTINGS:
+            continue
+        found, want = _expected(stage, dest)
+        if not found:
+            bad.append(f"--{a.dest}: no config field of that name (add it to RENAMED or NOT_SETTINGS)")
+        elif a.default is None:
+            continue  # the config's resolved value, or the preset's
+        elif isinstance(want, tuple) and isinstance(a.default, str):
+            if a.default.split(",") != list(want):
+                bad.append(f"--{a.dest}: default {a.default!r}, the setting's {want!r}")
+        elif a.default != want:
+            bad.append(f"--{a.dest}: default {a.default!r}, the setting's {want!r}")
+    assert not bad, f"inpaint360gs {stage}:\n" + "\n".join(bad)
+
+
+def test_the_run_stages_are_the_cli_until_choices():
+    until = next(a for a in _options("run") if a.dest == "until")
+    assert tuple(until.choices) == RUN_STAGES and until.default == RUN_STAGES[-1]
