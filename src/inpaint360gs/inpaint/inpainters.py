@@ -16,78 +16,10 @@ back-projection rely on the contract every inpainter here keeps:
   (masked pixels may hold anything, NaN included: they are never read);
 - seeded where the method is random (``seed``), so the same inputs give the same bytes.
 
-Methods (``INPAINTERS``; ``make_inpainter(name, **options)``):
-
-``telea``, ``ns``
-    OpenCV ``cv2.inpaint`` (Telea's fast marching; Navier-Stokes). Run per channel on float32
-    with the known range stretched to [0, 65535]: OpenCV's fast-marching update is off by up to
-    ~1.5 units of the sample value whatever the type (a constant 8-bit image of 100 comes back
-    with 99..105 in the hole, a float image of 0.3 with -1.2..1.8), so it needs a wide value range;
-    stretched, that error is ~2e-5 of the range, and nothing is quantised to 8 bit. Depth is
-    inpainted as depth.
-``harmonic``
-    Membrane fill: the solution of Laplace's equation in the hole with the known pixels as
-    boundary values (4-neighbour, Neumann at the image border; one sparse solve). Reproduces any
-    image that is linear in the pixel coordinates exactly. Depth is filled in inverse depth: a 3D
-    plane seen by a pinhole camera has an inverse depth linear in the pixel coordinates
-    (``n·X = c`` with ``X = z K⁻¹ (u, v, 1)`` gives ``1/z = n·K⁻¹(u, v, 1)/c``), so a planar
-    surface around a hole is continued exactly, without the intrinsics.
-``plane`` (depth only)
-    Per connected hole (8-connected), planes ``1/z = a u + b v + c`` fitted to the known pixels
-    within ``ring`` (6) pixels of the hole: up to ``planes`` (3) one after the other on the pixels
-    the previous ones leave (seeded RANSAC, inliers within 1% relative error or 3x the map's own
-    noise level, least-squares refits), each hole pixel taking the plane of its nearest inlier ring
-    pixel, so a hole across a floor and a wall continues both. The fill is clamped to the range of
-    inverse depth on the ring (an affine function never leaves that range inside the ring; the
-    clamp only acts where the fit extrapolates, at holes touching the image border, and keeps the
-    depth positive past a horizon). Exact for planar surroundings; the holes are mostly floor
-    under removed objects.
-``patchmatch``
-    Exemplar-based PatchMatch (Barnes et al. 2009), multi-scale, from ``patchmatch-cython``
-    (``inpaint_pyramid``, 5x5 patches, its seam blending); it returns 8 bit, so its fill is 8-bit
-    quantised (in [0, 1] steps of 1/255). Depth goes through it as inverse depth stretched to
-    0..255 (8-bit quantised as well). Seeded.
-``patchmatch_harmonic``
-    PatchMatch's texture on the membrane fill's low frequencies: ``pm + G_sigma * (harmonic - pm)``
-    with a Gaussian of ``sigma`` (3) pixels, over the whole frame (outside the hole the difference
-    is zero, so the correction fades out at the hole's border). A copied patch brings texture and
-    also its own brightness; a hole across a shading gradient or a highlight gets patches that
-    are too dark or too bright, which PSNR punishes and the eye sees as a blotch. The membrane
-    fill has the right low frequencies and no texture; the sum keeps what each gets right (the
-    structure/texture split of image inpainting). Depth goes through plain PatchMatch.
-``lama``
-    LaMa from a user-supplied ONNX checkpoint (:mod:`inpaint360gs.inpaint.lama`; ``lama_onnx`` or
-    ``$INPAINT360GS_LAMA_ONNX``). Depth through LaMa is how this package does the paper's "depth
-    inpainted by LaMa": the known depth is normalised to [0, 1] by its minimum and maximum over the
-    known pixels, replicated to three channels, inpainted as an image, the channels averaged and
-    the normalisation undone (the fill stays within the known depth range).
-
-Defaults, measured on the embedded benchmark's ground truth (``benchmarks/bench_inpainters.py``,
-``results/benchmarks/inpainters.txt``): the object-free ``test_*`` views inpainted inside their
-unseen masks and scored inside the mask (colour: all ten scenes, 160 views; depth and the earlier
-colour run: 56 views of synthetic cone, toys at 256x192 and reduced cone, fruits, toys at 128x96,
-with the first unseen-mask rule); LaMa not measured (no checkpoint here).
-
-- **RGB: ``patchmatch_harmonic``.** All ten scenes at 256x192 (160 test views), PSNR over mask
-  pixels / ROI LPIPS (VGG): patchmatch_harmonic 19.42 dB / 0.290 (sigma 2: 19.53 / 0.289, sigma 4:
-  19.34 / 0.292), patchmatch 18.83 / 0.301, harmonic 19.77 / 0.333, telea 18.74 / 0.311; ~0.07 s a
-  view. Better than plain PatchMatch on both: the copied patches' brightness errors were most of
-  its PSNR deficit, and the texture stays.
-- Earlier, five scene sets, before ``patchmatch_harmonic`` existed: ROI LPIPS (VGG) / PSNR over mask pixels / seconds at 256x192:
-  patchmatch 0.395 / 16.17 dB / 0.19 s, telea 0.422 / 16.87 dB / 0.013 s, ns 0.425 / 16.92 dB /
-  0.008 s, harmonic 0.452 / 17.33 dB / 0.010 s. The trade-off is texture against blur: the
-  diffusion fills (harmonic, telea, ns) are smooth, which PSNR rewards (+0.7 to +1.2 dB), and
-  LPIPS and the eye penalise (the wooden floor under the removed cone: LPIPS 0.50 against 0.60);
-  PatchMatch copies texture, as the paper's LaMa synthesises it, and wins LPIPS on 3 of the 5
-  scene sets, but not on the small holes of toys at 256x192 (0.388 against telea 0.358) nor on
-  reduced fruits (0.284 against 0.256), and it is ~15x slower (still ~0.2 s a view). ``telea``
-  is the fast choice with the better PSNR.
-- **Depth: ``plane``.** Median absolute relative error in the mask (mean over views): plane
-  0.0008 (per-view median 0 on 3 of the 5 scene sets), patchmatch 0.016, harmonic 0.020, ns
-  0.027, telea 0.031; with multiplicative noise on the known depth (a stand-in for rendered depth), sigma 0.5%: plane
-  0.0012, harmonic 0.020; sigma 2%: plane 0.0058, harmonic 0.023. One plane per hole instead of up
-  to three: 0.0055 (the holes at the top of the views span the far wall and the floor); ring 3 or
-  10 pixels instead of 6 and tolerance 3% instead of 1% change little or are worse. ~0.02 s a view.
+Methods (``INPAINTERS``; ``make_inpainter(name, **options)``; each class says how it fills): ``telea``,
+``ns``, ``harmonic``, ``plane`` (depth only), ``patchmatch``, ``patchmatch_harmonic``, ``shiftmap``, ``lama``.
+The defaults (``DEFAULT_RGB``, ``DEFAULT_DEPTH``) were chosen on the embedded benchmark's ground truth
+(``benchmarks/bench_inpainters.py``; the figures: CHANGELOG.md, "History").
 """
 
 from __future__ import annotations
@@ -103,7 +35,7 @@ from inpaint360gs.core.errors import InputError
 
 DEFAULT_RGB = "patchmatch_harmonic"
 DEFAULT_DEPTH = "plane"
-_STRETCH = 65535.0  # known range of a channel before cv2.inpaint (see the module docstring)
+_STRETCH = 65535.0  # known range of a channel before cv2.inpaint (see CvInpainter)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -263,7 +195,7 @@ def plane_fill(
     inv: np.ndarray, mask: np.ndarray, ring: int = 6, planes: int = 3, tol: float = 0.01, min_share: float = 0.15, seed: int = 0
 ) -> np.ndarray:
     """Per 8-connected hole, planes fitted to ``inv`` (H, W) over the known pixels within ``ring``
-    pixels, evaluated in the hole and clamped to the ring's range (module docstring).
+    pixels, evaluated in the hole and clamped to the ring's range (see PlaneInpainter).
 
     Up to ``planes`` planes are fitted one after the other (RANSAC, inliers within a relative error
     of ``tol`` or 3 times the image's noise level, whichever is larger; refined by least squares) on the ring pixels the previous planes leave, while at least
@@ -369,7 +301,13 @@ class Inpainter:
 
 @dataclass
 class CvInpainter(Inpainter):
-    """OpenCV Telea (``flag`` 1) or Navier-Stokes (``flag`` 0) with inpainting radius ``radius``."""
+    """OpenCV's ``cv2.inpaint``: Telea's fast marching (``flag`` 1) or Navier-Stokes (``flag`` 0) with
+    inpainting radius ``radius``, per channel on float32 with the known range stretched to
+    [0, 65535]: OpenCV's fast-marching update is off by up to
+    ~1.5 units of the sample value whatever the type (a constant 8-bit image of 100 comes back
+    with 99..105 in the hole, a float image of 0.3 with -1.2..1.8), so it needs a wide value range;
+    stretched, that error is ~2e-5 of the range, and nothing is quantised to 8 bit. Depth is
+    inpainted as depth."""
 
     radius: float = 3.0
     flag: ClassVar[int] = cv2.INPAINT_TELEA
@@ -395,7 +333,14 @@ class NSInpainter(CvInpainter):
 
 @dataclass
 class HarmonicInpainter(Inpainter):
-    """Membrane (Laplace) fill; depth in inverse depth."""
+    """Membrane (Laplace) fill; depth in inverse depth.
+
+    Membrane fill: the solution of Laplace's equation in the hole with the known pixels as
+    boundary values (4-neighbour, Neumann at the image border; one sparse solve). Reproduces any
+    image that is linear in the pixel coordinates exactly. Depth is filled in inverse depth: a 3D
+    plane seen by a pinhole camera has an inverse depth linear in the pixel coordinates
+    (``n·X = c`` with ``X = z K⁻¹ (u, v, 1)`` gives ``1/z = n·K⁻¹(u, v, 1)/c``), so a planar
+    surface around a hole is continued exactly, without the intrinsics."""
 
     name: ClassVar[str] = "harmonic"
 
@@ -408,7 +353,17 @@ class HarmonicInpainter(Inpainter):
 
 @dataclass
 class PlaneInpainter(Inpainter):
-    """Robust plane per hole in inverse depth, fitted within ``ring`` pixels of the hole."""
+    """Robust planes per hole in inverse depth, fitted within ``ring`` pixels of the hole.
+
+    Per connected hole (8-connected), planes ``1/z = a u + b v + c`` fitted to the known pixels
+    within ``ring`` (6) pixels of the hole: up to ``planes`` (3) one after the other on the pixels
+    the previous ones leave (seeded RANSAC, inliers within 1% relative error or 3x the map's own
+    noise level, least-squares refits), each hole pixel taking the plane of its nearest inlier ring
+    pixel, so a hole across a floor and a wall continues both. The fill is clamped to the range of
+    inverse depth on the ring (an affine function never leaves that range inside the ring; the
+    clamp only acts where the fit extrapolates, at holes touching the image border, and keeps the
+    depth positive past a horizon). Exact for planar surroundings; the holes are mostly floor
+    under removed objects."""
 
     name: ClassVar[str] = "plane"
     supports_rgb: ClassVar[bool] = False
@@ -423,7 +378,12 @@ class PlaneInpainter(Inpainter):
 
 @dataclass
 class PatchMatchInpainter(Inpainter):
-    """Multi-scale PatchMatch (patchmatch-cython), seeded."""
+    """Multi-scale PatchMatch (patchmatch-cython), seeded.
+
+    Exemplar-based PatchMatch (Barnes et al. 2009), multi-scale, from ``patchmatch-cython``
+    (``inpaint_pyramid``, 5x5 patches, its seam blending); it returns 8 bit, so its fill is 8-bit
+    quantised (in [0, 1] steps of 1/255). Depth goes through it as inverse depth stretched to
+    0..255 (8-bit quantised as well). Seeded."""
 
     name: ClassVar[str] = "patchmatch"
     seed: int = 0
@@ -445,8 +405,12 @@ class PatchMatchInpainter(Inpainter):
 @dataclass
 class PatchMatchHarmonicInpainter(PatchMatchInpainter):
     """PatchMatch's texture on the membrane fill's low frequencies: ``pm + G_sigma * (harmonic - pm)``
-    over the whole frame (outside the hole both equal the image, so the correction fades out at
-    its border). Colour only in this sense; depth goes through plain PatchMatch."""
+    with a Gaussian of ``sigma`` (3) pixels, over the whole frame (outside the hole the difference
+    is zero, so the correction fades out at the hole's border). A copied patch brings texture and
+    also its own brightness; a hole across a shading gradient or a highlight gets patches that
+    are too dark or too bright, which PSNR punishes and the eye sees as a blotch. The membrane
+    fill has the right low frequencies and no texture; the sum keeps what each gets right (the
+    structure/texture split of image inpainting). Depth goes through plain PatchMatch."""
 
     name: ClassVar[str] = "patchmatch_harmonic"
     sigma: float = 3.0  # pixels; the Gaussian that splits low from high frequencies
@@ -493,7 +457,13 @@ class ShiftMapInpainter(Inpainter):
 
 @dataclass
 class LamaInpainter(Inpainter):
-    """LaMa from an ONNX checkpoint (``lama_onnx`` or ``$INPAINT360GS_LAMA_ONNX``), loaded on creation."""
+    """LaMa from an ONNX checkpoint (``lama_onnx`` or ``$INPAINT360GS_LAMA_ONNX``), loaded on creation.
+
+    LaMa from a user-supplied ONNX checkpoint (:mod:`inpaint360gs.inpaint.lama`; ``lama_onnx`` or
+    ``$INPAINT360GS_LAMA_ONNX``). Depth through LaMa is how this package does the paper's "depth
+    inpainted by LaMa": the known depth is normalised to [0, 1] by its minimum and maximum over the
+    known pixels, replicated to three channels, inpainted as an image, the channels averaged and
+    the normalisation undone (the fill stays within the known depth range)."""
 
     name: ClassVar[str] = "lama"
     lama_onnx: str | Path | None = None

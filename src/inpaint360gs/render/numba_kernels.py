@@ -12,28 +12,22 @@ chosen for LLVM's vectoriser, which is what makes it fast:
 - per-pixel state lives in one flat float32 array at fixed row offsets, indexed with unsigned ints:
   signed indices make numba emit negative-index wrap-around, which blocks vectorisation, and
   separate arrays need runtime alias checks;
-- ``error_model="numpy"``: Python's ZeroDivisionError check is an early exit that blocks it too;
+- ``error_model="numpy"``: Python's ZeroDivisionError check, an early exit, blocks it too;
 - each pass of the backward is its own small function (loop-local names reused across loops in
   one function turn into live-out values that the vectoriser rejects); numba inlines them, giving
   each inlined copy fresh names.
-Gradients are written per (tile, Gaussian) intersection and summed afterwards in a fixed order,
-so results are deterministic whatever the thread count. Everything is float32.
+Gradients are summed per (tile, Gaussian) in a fixed order: deterministic for any thread count. All float32.
 
 Every entry kernel (``bin_gaussians``, ``pack``, the forward and backward workers, ``reduce_rows``)
 holds all of its floating-point code itself: the helpers are ``inline="always"`` and there is no
-``prange`` (numba's own helpers that stay linked in, such as argsort, cumsum and min/max, hold no
-fast-math arithmetic). That makes the process that compiles the kernels compute the same bits as the
-processes that load them from the on-disk cache. Numba compiles a jitted function that a kernel
-calls, and the body of a ``prange`` loop, as a library of its own, loads it into the process's JIT,
-and links a copy of it into the caller, where LLVM optimises it once more; with fastmath
-(``reassoc``, ``contract``) the two copies round differently. The JIT binds a call to the first
-definition of the symbol it has loaded: in the compiling process the callee's own library, in a
-process that loads the caller from the cache the caller's copy. (Before this layout, cold- and
-warm-cache training runs differed from the first step on.) So forward and backward run one ``nogil``
-worker kernel per thread on Python threads (:func:`_run_workers`), and ``pack`` is serial (0.2 ms at
-30k Gaussians). The projection kernels (:mod:`.numba_projection`) keep ``prange``: without fastmath
-a re-optimised copy computes the same IEEE results. ``tests/test_numba_cold_warm.py`` checks both.
-Import through :mod:`inpaint360gs.render.numba_backend`, which sets up the on-disk cache first.
+``prange``, so the process that compiles the kernels computes the same bits as the processes that
+load them from the on-disk cache. (Numba compiles a called jitted function, or a ``prange`` body, as
+a library of its own and links a copy into the caller, which LLVM optimises once more; with fastmath
+the two copies round differently, and the JIT binds the call to whichever copy it loaded first.) So
+forward and backward run one ``nogil`` worker kernel per thread on Python threads
+(:func:`_run_workers`), and ``pack`` is serial. The projection kernels (:mod:`.numba_projection`)
+keep ``prange``: without fastmath a re-optimised copy computes the same IEEE results.
+``tests/test_numba_cold_warm.py`` checks both. Import through :mod:`.numba_backend` (it sets up the cache).
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@ support plane, rendered into each training view. Needs no learned weights.
 
 The paper gets raw per-view masks from HQ-SAM's automatic mask generator (Sec. 3.2); this product
 must run offline on a CPU without downloaded weights, and 2D-only substitutes failed on the synthetic
-benchmark (Felzenszwalb on RGB + log depth: target IoU 0.27–0.57; depth-edge components 0.02–0.08),
-while the trained 3DGS already separates what stands on the floor from the floor. So:
+benchmark (CHANGELOG.md, "History"), while the trained 3DGS already separates what stands on the
+floor from the floor. So:
 
 1. **frame** (:mod:`.frame`): up from the cameras, look-at point, orbit radius R, ground plane by
    RANSAC on opaque Gaussian centres, heights above it;
@@ -22,15 +22,12 @@ a sparse model (few Gaussians per object, e.g. trained on 128×96 images) widens
 growing neighbourhoods to twice the typical neighbour distance (:func:`.cluster3d.density_scale`).
 
 Limits (what it cannot do that SAM can):
-
 * Only objects standing on one support plane inside the orbit: a scene whose support is not a plane
   (a slope, stairs), objects hanging on walls, or a forward-facing capture are out of reach.
 * Objects touching each other with no support layer between them form one segment; an object alone
-  on a plate merges with the plate (peeling needs two groups above a layer); the peeling rule is
-  sensitive to how densely the layer is reconstructed.
+  on a plate merges with the plate (peeling needs two groups above a layer).
 * Thin, low-contrast parts that 3DGS reconstructs with low opacity get lost; thin supports get holes.
-* Nothing below τ above the plane (a rug, a sheet of paper) and nothing of the background (floor,
-  walls) gets a segment: 0 means "not an object on the support".
+* Nothing below τ above the plane (a rug) and nothing of the background gets a segment (0).
 """
 
 from __future__ import annotations
