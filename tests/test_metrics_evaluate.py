@@ -14,7 +14,6 @@ import torch
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.images import read_image, to_float
 from inpaint360gs.metrics import (
-    evaluate_renders,
     lpips,
     masked_lpips,
     masked_psnr,
@@ -25,7 +24,7 @@ from inpaint360gs.metrics import (
     roi_ssim,
     ssim,
 )
-from inpaint360gs.evaluate.stage import metric_names
+from inpaint360gs.evaluate.stage import evaluate_renders, metric_names
 from inpaint360gs.metrics.masked import EMPTY_ROI_REASON, INFINITE_PSNR_REASON
 from tests.scene_builder import simple_scene, write_png
 from tests.test_metrics_distribution import generated_inception  # noqa: F401 (session fixture)
