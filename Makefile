@@ -15,7 +15,7 @@ SNAKEMAKE_ARGS ?=
 
 STAMP := $(VENV)/.installed
 
-.PHONY: benchmark test env clean-env
+.PHONY: benchmark test test-fast env clean-env
 
 env: $(STAMP)
 
@@ -35,6 +35,10 @@ benchmark: $(STAMP)
 TEST_WORKERS ?= auto
 test: $(STAMP)
 	$(VENV)/bin/python -m pytest -q -n $(TEST_WORKERS) --maxprocesses 8 --dist worksteal
+
+# Every test but the slow end-to-end ones (marker `slow`, pyproject.toml): the quick check while editing.
+test-fast: $(STAMP)
+	$(VENV)/bin/python -m pytest -q -m "not slow" -n $(TEST_WORKERS) --maxprocesses 8 --dist worksteal
 
 clean-env:
 	rm -rf $(VENV)
