@@ -60,7 +60,7 @@ import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
-from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
@@ -120,9 +120,11 @@ class RemovalConfig:
     footprint_margin: float | None = 0.05
     footprint_depth: float = 0.1
     # Selected Gaussians lying on the support (within ``support_band`` x the object's height of the
-    # plane) farther than ``support_reach`` x the footprint's size from its outline are the support,
-    # taken for the object where it touches it (a segmenter's cluster holding a blob of the mat): they
-    # stay. Nearer, low parts are the object's own (a bucket's teeth, the tracks' lower edge).
+    # plane) farther than ``support_reach`` x the footprint's size from its outline, in the colours
+    # of the unselected support around the footprint, are the support taken for the object where it
+    # touches it (a segmenter's cluster holding a blob of the mat): they stay. Nearer ones are the
+    # object's low parts (a bucket's teeth, the tracks' lower edge), and so are farther ones in
+    # colours the support around does not have (a cone's flat base): they go.
     support_band: float = 0.05
     support_reach: float = 0.25
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
@@ -312,18 +314,20 @@ def remove_objects(
     footprints = []
     if cfg.footprint_margin is not None:
         opac = field_.gaussians.opacities.detach().cpu().double().numpy()
-        remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts)
+        colours = (SH_C0 * field_.gaussians.sh0[:, 0].detach().cpu().double().numpy() + 0.5).clip(0.0, 1.0)
+        remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts, colours)
     mask = torch.from_numpy(remove)
     return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts, footprints)
 
 
 def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarray, bodies: list[np.ndarray], keep: np.ndarray,
-                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict) -> tuple[np.ndarray, list]:  # fmt: skip
+                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict, colours: np.ndarray | None = None) -> tuple[np.ndarray, list]:  # fmt: skip
     """Step 4 (``RemovalConfig.footprint_margin``): ``remove`` plus every Gaussian in each object's
     footprint column (not those in ``keep``: other objects), minus the support Gaussians the
     selection took outside it. ``bodies``: per object, what steps 1-2 took; ``up`` a hint of the
-    support's normal (None: the cameras' up is not known and the column is skipped). Returns the
-    new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
+    support's normal (None: the cameras' up is not known and the column is skipped); ``colours``
+    (N, 3) in [0, 1], None = every low selected Gaussian far enough out counts as support. Returns
+    the new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
     from inpaint360gs.core.support import object_footprint
 
     remove = remove.copy()
@@ -339,11 +343,29 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         h = fp.heights(means)
         d = fp.distance(means)
         column = (d <= cfg.footprint_margin * fp.size) & (h > -cfg.footprint_depth * fp.height) & (h <= FOOTPRINT_TOP * fp.height) & ~keep
-        support = remove & body & (d > cfg.support_reach * fp.size) & (np.abs(h) <= cfg.support_band * fp.height)
+        low = np.abs(h) <= cfg.support_band * fp.height
+        support = remove & body & (d > cfg.support_reach * fp.size) & low
+        if colours is not None and support.any():
+            ring = ~remove & low & (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
+            support[support] = support_coloured(colours[support], colours[ring])
         counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size})
         remove = (remove | column) & ~support
         found.append(fp)
     return remove, found
+
+
+def support_coloured(candidates: np.ndarray, ring: np.ndarray, k: int = 8, quantile: float = 0.9) -> np.ndarray:
+    """(M,) bool: which ``candidates`` (M, 3) colours the support's own ``ring`` (R, 3) colours hold:
+    a candidate's mean colour distance to its ``k`` nearest ring colours is within the ``quantile``
+    of the same distance among the ring's colours (each without itself). Fewer than 2k ring
+    colours: every candidate counts (nothing to compare with)."""
+    from scipy.spatial import cKDTree
+
+    if len(ring) < 2 * k:
+        return np.ones(len(candidates), dtype=bool)
+    tree = cKDTree(ring)
+    own = tree.query(ring, k=k + 1)[0][:, 1:].mean(axis=1)
+    return tree.query(candidates, k=k)[0].mean(axis=1) <= np.quantile(own, quantile)
 
 
 @torch.no_grad()
