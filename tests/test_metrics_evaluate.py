@@ -199,7 +199,7 @@ def test_scene_without_test_views_reports_no_ground_truth(tmp_path, capsys):
     assert res["num_views"] == 0 and res["views"] == [] and res["per_view"] == {}
     assert list(res["mean"]) == metric_names(("vgg", "alex")) and set(res["mean"].values()) == {None}
     assert set(res["null_reasons"]["mean"].values()) == {NO_GROUND_TRUTH}
-    assert set(res["scene_metrics"]) == {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr"} and set(res["scene_metrics"].values()) == {None}
+    assert set(res["scene_metrics"]) == {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off"} and set(res["scene_metrics"].values()) == {None}
     assert set(res["null_reasons"]["scene_metrics"].values()) == {NO_GROUND_TRUTH}
 
     out = tmp_path / "m.json"

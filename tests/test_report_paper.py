@@ -27,7 +27,7 @@ def eval_json(path: Path, psnr: float, ssim: float, lpips: float, fid: float | N
         mean[k] = base + (10.0 if k == "masked_psnr" else -1.0 if k == "roi_psnr" else 0.0)
     data = {
         "scene": "data/x", "num_views": 3, "mean": mean,
-        "scene_metrics": {"fid": fid, "fd_vgg16": fd, "kid_vgg16": 0.01, "unseen_share": 5.0, "amcr": 6.0},
+        "scene_metrics": {"fid": fid, "fd_vgg16": fd, "kid_vgg16": 0.01, "unseen_share": 5.0, "amcr": 6.0, "roi_depth_off": 10.0},
         "null_reasons": {"per_view": {}, "mean": {}, "scene_metrics": {} if fid is not None else {"fid": "no Inception weights"}},
         "weights": {"lpips_vgg": {"path": "/somewhere/vgg16.ckpt", "sha256": SHA}, "inception": None},
     }
@@ -262,7 +262,7 @@ def test_per_scene_ablations_and_runtime(tmp_path, capsys, records):
     assert de["psnr"] == pytest.approx(0.0) and de["psnr_mark"] == "tied" and de["ssim_ci_low"] == 0 == de["ssim_ci_high"]
     t3_md = (out / "table3_ablation.md").read_text()
     assert "3 scene(s) (s1, s2, s3) × seed(s) 0, 1" in t3_md and "**26.15 ± 0.21**" in t3_md
-    assert "e) w/o hybrid supervision (geometric; 3 scene(s) (s1, s2, s3) × seed(s) 0, 1): no measurable effect on 10 compared metric(s)" in t3_md
+    assert "e) w/o hybrid supervision (geometric; 3 scene(s) (s1, s2, s3) × seed(s) 0, 1): no measurable effect on 11 compared metric(s)" in t3_md
     assert "a) 2D tracker association (geometric; 3 scene(s) (s1, s2, s3) × seed(s) 0, 1): worse on PSNR, masked PSNR" in t3_md
     tex3 = (out / "table3_ablation.tex").read_text().splitlines()
     second = next(i for i, line in enumerate(tex3) if line.startswith("2 & Ours"))

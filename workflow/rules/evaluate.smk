@@ -4,8 +4,9 @@
 
 rule evaluate:
     """Every metric of a method's test_ renders (`inpaint360gs evaluate`), AMCR on the method's own
-    removal masks at the test cameras (`--removal`, paper supp. Eq. 1); a scene without ground truth
-    gets null metrics with the reason."""
+    removal masks at the test cameras (`--removal`, paper supp. Eq. 1), the fill's geometry against
+    the true surface (`--model`: its final model); a scene without ground truth gets null metrics
+    with the reason."""
     input:
         scene_json=lambda wc: f"{scene_dir(wc.scene)}/scene.json",
         stage=lambda wc: method_renders(wc)[0],
@@ -16,6 +17,7 @@ rule evaluate:
         scene_dir=lambda wc: scene_dir(wc.scene),
         renders=lambda wc: os.path.join(os.path.dirname(method_renders(wc)[0]), method_renders(wc)[1]),
         removed=lambda wc: removal_dir(wc, METHODS[wc.method]["association"]),
+        model=lambda wc: os.path.join(os.path.dirname(method_model(wc)), "point_cloud.ply"),
         backend=BACKEND,
         inception=f"--inception-weights {shlex.quote(config['inception_weights'])}" if config["inception_weights"] else "",
     threads: THREADS
@@ -27,7 +29,7 @@ rule evaluate:
         f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/evaluate.tsv"
     shell:
         "inpaint360gs evaluate {params.renders:q} {params.scene_dir:q} {output:q} {params.inception}"
-        " --removal {params.removed:q} --backend {params.backend} --threads {threads} > {log:q} 2>&1"
+        " --removal {params.removed:q} --model {params.model:q} --backend {params.backend} --threads {threads} > {log:q} 2>&1"
 
 
 rule record:

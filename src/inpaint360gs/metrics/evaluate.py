@@ -17,9 +17,10 @@ It returns a JSON-ready dict (no NaN or inf anywhere; ``json.dumps(..., allow_na
 - ``scene_metrics``: ``fid`` (pytorch-fid protocol, only with the Inception weights file),
   ``fd_vgg16`` and ``kid_vgg16`` (substitutes on VGG16 features, always computed), ``unseen_share``
   (the coverage of the ground-truth unseen masks: mean over views with a mask file of the percentage
-  of pixels in the mask) and ``amcr`` (paper supp. Eq. 1 on the run's own removal masks at the test
-  cameras, given as ``removal_masks``; null with the reason without them); definitions in
-  ``definitions``;
+  of pixels in the mask), ``amcr`` (paper supp. Eq. 1 on the run's own removal masks at the test
+  cameras, given as ``removal_masks``) and ``roi_depth_off`` (the fill's geometry against the true
+  surface, given as ``depth_off``; :mod:`inpaint360gs.report.geometry`), each null with the reason
+  without its input; definitions in ``definitions``;
 - ``weights``: path and sha256 of every weights file used.
 
 A scene without ``test_`` views (built from object-inclusive photos only: there is no object-free
@@ -78,8 +79,11 @@ DEFINITIONS = {
     "amcr": ("AMCR (paper supp. Eq. 1) on the run's own removal masks: mean over the test views of 100 * pixels the removal "
              "leaves to fill / image pixels"),
 }
+DEFINITIONS["roi_depth_off"] = ("percentage of the test views' unseen-mask pixels that the run's model leaves empty or shows more than "
+                                 "5% of the true depth off the object-free surface (gt/depth)")
 NO_REMOVAL_REASON = "no removal masks given (inpaint360gs evaluate --removal REMOVED_DIR computes them at the test cameras)"
-SCENE_KEYS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr")
+NO_MODEL_REASON = "no model given (inpaint360gs evaluate --model PLY renders its depth at the test cameras)"
+SCENE_KEYS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off")
 PIXELS_PER_BATCH = 1 << 20  # images per network call: a bound on activation memory (~1M pixels)
 
 
@@ -338,7 +342,7 @@ def _no_ground_truth(scene: Scene, renders_dir: Path, nets: tuple) -> dict:
         "conventions": dict(CONVENTIONS),
         "definitions": dict(DEFINITIONS),
         "mean": dict.fromkeys(names),
-        "num_views_mean": dict.fromkeys((*names, "unseen_share", "amcr"), 0),
+        "num_views_mean": dict.fromkeys((*names, "unseen_share", "amcr", "roi_depth_off"), 0),
         "per_view": {},
         "scene_metrics": dict.fromkeys(scene_keys),
         "null_reasons": {"per_view": {}, "mean": dict.fromkeys(names, NO_GROUND_TRUTH),
@@ -362,6 +366,7 @@ def evaluate_renders(
     device: str = "cpu",
     resize: int = 1,
     removal_masks: Mapping[str, np.ndarray] | None = None,
+    depth_off: tuple[float | None, str | None] | None = None,
 ) -> dict:
     """Metrics of the renders in ``renders_dir`` against the test views of ``scene_dir``.
 
@@ -373,7 +378,8 @@ def evaluate_renders(
     of this scene at this ``resize`` (docs/architecture.md, "Provenance chain"). A test view without
     an unseen mask file, while others have one, is warned about (its masked and ROI values are null).
     ``removal_masks``: per test view name, the pixels the run's removal leaves to fill (bool, the
-    view's size), for ``amcr``. See the module docstring for the output layout and the handling of nulls.
+    view's size), for ``amcr``; ``depth_off``: (value, reason when null) of ``roi_depth_off``,
+    computed from the run's model. See the module docstring for the output layout and the handling of nulls.
     """
     nets = tuple(dict.fromkeys(nets))
     unknown = [n for n in nets if n not in LPIPS_METRIC]
@@ -422,6 +428,10 @@ def evaluate_renders(
     scene_values["amcr"], counts["amcr"] = _removal_amcr(removal_masks, views), len(views) if removal_masks is not None else 0
     if removal_masks is None:
         scene_reasons["amcr"] = NO_REMOVAL_REASON
+    scene_values["roi_depth_off"], why = depth_off if depth_off is not None else (None, NO_MODEL_REASON)
+    counts["roi_depth_off"] = len(with_mask) if scene_values["roi_depth_off"] is not None else 0
+    if scene_values["roi_depth_off"] is None:
+        scene_reasons["roi_depth_off"] = why or "undefined"
 
     return {
         "scene": str(scene_dir),

@@ -19,7 +19,8 @@ The tables:
 - ``per_scene``: every metric of every run (scene, method, segmenter, seed) (paper supp.
   "Per-Scene Breakdown"); no marks (a single run has no interval);
 - ``table1_average``: methods and baselines, PSNR / SSIM / LPIPS full, ``masked_*`` and ``roi_*``, and
-  FID, or the labelled substitute ``fd_vgg16`` where FID is null, averaged over runs (paper Tab. 1),
+  FID, or the labelled substitute ``fd_vgg16`` where FID is null, and the fill's geometry
+  (``roi_depth_off``, :mod:`.geometry`), averaged over runs (paper Tab. 1),
   with Δ rows for the method minus each baseline; AMCR (supp. Eq. 1, on each run's own removal masks)
   and the ground-truth unseen share as context columns, not compared;
 - ``table3_ablation``: the ablations a)-e) against the full method on the runs each ablation has
@@ -76,6 +77,7 @@ METRIC_COLUMNS: dict[str, tuple[str, int, str]] = {
     "fid": ("FID", LOWER, ".2f"),
     "fd_vgg16": ("FD-VGG16", LOWER, ".2f"),
     "kid_vgg16": ("KID-VGG16", LOWER, ".4g"),
+    "roi_depth_off": ("ROI depth off (%)", LOWER, ".2f"),  # the fill's geometry (report/geometry.py)
     # properties of the run's removal and of the scene: more or less of either is neither better nor worse
     "amcr": ("AMCR (%)", NONE, ".2f"),
     "unseen_share": ("unseen share (%)", NONE, ".2f"),
@@ -83,6 +85,7 @@ METRIC_COLUMNS: dict[str, tuple[str, int, str]] = {
 assert set(METRIC_COLUMNS) == set(METRICS)
 # the compared columns of Tabs. 1 and 3 (then FID or its substitute), and the context columns
 AVERAGE_METRICS = ("psnr", "masked_psnr", "roi_psnr", "ssim", "masked_ssim", "roi_ssim", "lpips", "masked_lpips", "roi_lpips")
+GEOMETRY_METRICS = ("roi_depth_off",)  # compared after FID: the fill's surface against the true one
 CONTEXT_METRICS = ("amcr", "unseen_share")
 
 # paper Tab. 3: letter -> (name, method ids recognised without an ``ablation=`` label)
@@ -432,7 +435,7 @@ def table1(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
     groups = _groups(recs, kinds)
     common = _common_runs(groups, "metrics", notes)
     fid = _fid_column([g[r] for g in groups.values() for r in common], notes)
-    compared = (*AVERAGE_METRICS, fid)
+    compared = (*AVERAGE_METRICS, fid, *GEOMETRY_METRICS)
     metrics = (*compared, *CONTEXT_METRICS)
     table = Table(
         "table1_average", "Average over runs of the methods and baselines (paper Tab. 1)",
@@ -500,7 +503,7 @@ def table3(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
     recs = _without_metrics(records, ("method", "ablation"), notes)
     groups = _groups(recs, ("method", "ablation"))
     fid = _fid_column([r for g in groups.values() for r in g.values()], notes)
-    compared = (*AVERAGE_METRICS, fid)
+    compared = (*AVERAGE_METRICS, fid, *GEOMETRY_METRICS)
     metrics = (*compared, "amcr")
     table = Table(
         "table3_ablation", "Ablations against the full method (paper Tab. 3)",

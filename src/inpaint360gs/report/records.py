@@ -10,8 +10,9 @@ A record holds
 - ``metrics``: the evaluation means of ``inpaint360gs evaluate`` (full, ``masked_*``, ``roi_*``; paper
   Sec. 4 "Metrics") and its scene metrics (``fid``, ``fd_vgg16``, ``kid_vgg16``, ``unseen_share``: the
   ground-truth unseen masks' coverage of the test views, ``amcr``: paper supp. Eq. 1 on the run's own
-  removal masks at the test cameras), each a finite number or null; ``null_reasons`` says why each
-  null is null;
+  removal masks at the test cameras, ``roi_depth_off``: the share of the unseen region the run's model
+  leaves empty or puts off the true surface), each a finite number or null; ``null_reasons`` says why
+  each null is null;
 - ``skip_reason``: set (and every metric null) for a scene without ground truth, which has no evaluation;
 - ``stages``: per stage, wall seconds (mean over the repeats of a Snakemake ``benchmark:`` file),
   max RSS in MB (max over the repeats; null where Snakemake wrote ``NA``), CPU seconds, repeats;
@@ -47,7 +48,7 @@ MEAN_METRICS = (
     "masked_psnr", "masked_ssim", "masked_lpips", "masked_lpips_alex",
     "roi_psnr", "roi_ssim", "roi_lpips", "roi_lpips_alex",
 )
-SCENE_METRICS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr")
+SCENE_METRICS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off")
 # why ``amcr`` is null in what was written before it was computed on the removal masks
 OLD_AMCR_REASON = "not recorded: this {} is from before AMCR was computed on the removal masks (its 'amcr' was the unseen share)"
 METRICS = MEAN_METRICS + SCENE_METRICS
@@ -323,12 +324,13 @@ def check_record(data: object, where: str) -> dict:
     if not isinstance(metrics, dict):
         raise InputError("'metrics' must be a JSON object", where)
     if data["format"] == FORMAT_1 and "unseen_share" not in metrics:
-        metrics["unseen_share"], metrics["amcr"] = metrics.get("amcr"), None
+        metrics["unseen_share"], metrics["amcr"], metrics["roi_depth_off"] = metrics.get("amcr"), None, None
         reasons = data.get("null_reasons")
         if isinstance(reasons, dict):
             if "amcr" in reasons:
                 reasons["unseen_share"] = reasons.pop("amcr")
             reasons["amcr"] = data.get("skip_reason") or OLD_AMCR_REASON.format("record")
+            reasons["roi_depth_off"] = data.get("skip_reason") or "not recorded: a record of format 1"
     for k in METRICS:
         if k not in metrics:
             raise InputError(f"metric {k!r} missing", where)
