@@ -30,7 +30,7 @@ for name in ("per_scene", "table1_average", "table3_ablation", "table2_runtime")
     if bad:
         problems.append(f"{name}.csv: non-finite values in {bad}")
     if name != "table2_runtime":
-        for col in (*COMPARED, "amcr"):
+        for col in (*COMPARED, "amcr", "roi_depth_off"):
             if col in df.columns and df.loc[df.get("row_type", pd.Series("mean", index=df.index)) != "difference", col].isna().any():
                 problems.append(f"{name}.csv: empty cells in {col}")
             elif col not in df.columns:

@@ -30,9 +30,6 @@ from inpaint360gs.io.scene import Scene, View
 from inpaint360gs.metrics.masked import amcr
 from inpaint360gs.remove.removal import RemovalConfig, fill_masks
 
-DEFINITION = ("AMCR (paper supp. Eq. 1) of the run's own removal: mean over the test views of 100 * pixels to fill / image pixels, "
-              "a pixel being to fill when the removed Gaussians gave at least the removal's mask_share of its colour")
-
 
 def _removal_info(removed_dir: Path) -> dict:
     path = removed_dir / "removal.json"

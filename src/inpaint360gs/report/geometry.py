@@ -28,8 +28,6 @@ from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import normalised_depth
 
 TOLERANCE = 0.05  # relative depth error beyond which a pixel's surface is off (5 %)
-DEFINITION = (f"percentage of the test views' unseen-mask pixels that the run's model leaves empty (alpha < 0.5) or shows more than "
-              f"{TOLERANCE:.0%} of the true depth off the object-free surface (gt/depth)")
 NO_GT_DEPTH = "no gt/depth in the scene (only synthetic scenes know the true surface)"
 
 
