@@ -600,7 +600,8 @@ def test_footprint_column_takes_what_stands_on_the_object_s_footprint_and_the_co
     faint floaters over it with no opinion, another object poking into its column, and a patch of
     floor beside it that the field took for the object. The footprint column takes the box, its
     underside, the floor under it and within the margin, and the floaters; the other object, the
-    mistaken floor patch and the floor beyond the margin stay; nothing is left standing there."""
+    mistaken floor patch and the floor beyond the margin stay; nothing is left standing there. Low
+    parts of the object beside it (a bucket's teeth, within the support band) go with it."""
     from inpaint360gs.core.support import object_footprint
     from inpaint360gs.metrics.capture import standing_share
 
@@ -614,12 +615,13 @@ def test_footprint_column_takes_what_stands_on_the_object_s_footprint_and_the_co
     underside = np.c_[rng.uniform(-0.24, 0.24, (60, 2)), rng.uniform(0.01, 0.045, 60)]
     floaters = np.c_[rng.uniform(-0.2, 0.2, (20, 2)), rng.uniform(0.55, 0.8, 20)]
     other = ball(rng, 40, 0.05, (0.2, 0.2, 0.3))
-    parts = [(floor[~under_box & ~beside], 0), (floor[under_box], 0), (floor[beside], 1), (box, 1), (underside, 0), (floaters, -1), (other, 2)]
+    teeth = np.c_[rng.uniform(0.26, 0.3, (30, 1)), rng.uniform(-0.2, 0.2, (30, 1)), rng.uniform(0.004, 0.02, 30)]  # low, beside the box
+    parts = [(floor[~under_box & ~beside], 0), (floor[under_box], 0), (floor[beside], 1), (box, 1), (underside, 0), (floaters, -1), (other, 2), (teeth, 1)]
     field, part = hand_field(parts)
     up = np.array([0.0, 0.0, 1.0])
     res = remove_objects(field, [3], RemovalConfig(hull=False), up=up)
     removed = res.removed_mask.numpy()
-    assert removed[np.isin(part, [1, 3, 4, 5])].all()  # under the box, the box, its underside, the floaters
+    assert removed[np.isin(part, [1, 3, 4, 5, 7])].all()  # under the box, the box, its underside, the floaters, its low teeth
     assert not removed[np.isin(part, [2, 6])].any()  # the floor patch taken for the object, the other object
     fp = res.footprints[0]
     assert abs(fp.height - 0.5) < 0.01 and np.allclose(fp.normal, up, atol=0.01) and abs(fp.size - 0.5) < 0.02

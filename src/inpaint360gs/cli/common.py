@@ -280,6 +280,14 @@ def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | P
 # --- threads -----------------------------------------------------------------------------------------
 
 
+def add_scene_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--resize`` and ``--llffhold``: how a stage reads its scene folder (``io.scene.load_scene``)."""
+    from inpaint360gs.core.layout import LLFFHOLD
+
+    parser.add_argument("--resize", type=positive_int, default=1, help="work on the images downscaled by this factor (images_<R>/ when present)")
+    parser.add_argument("--llffhold", type=nonneg_int, default=LLFFHOLD, help=f"every Nth non-test view is held out (default {LLFFHOLD}; 0: none)")
+
+
 def add_threads_argument(parser: argparse.ArgumentParser) -> None:
     default = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     parser.add_argument("--threads", type=positive_int, default=default, help=f"CPU threads for torch and numba (default: {default}, the usable cores)")

@@ -32,7 +32,7 @@ def evaluate_views(
     for v in views:
         ref = scene.load_image(v, allow_test=allow_test)
         out = render(gaussians, v.camera, sh_degree=sh_degree, background=background, backend=backend)
-        img = out.color.clamp(0.0, 1.0)
+        img = out.color.clamp(0.0, 1.0).cpu()
         per_view[v.name] = {"psnr": psnr(img, ref), "ssim": ssim(img, ref)}
     n = len(per_view)
     return {

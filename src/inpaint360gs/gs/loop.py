@@ -62,9 +62,10 @@ class SceneViews(ViewSource):
     maps a target name to a function ``view -> tensor`` for more per-view targets (e.g. object labels).
     """
 
-    def __init__(self, scene: Scene, views: Sequence[View] | None = None, extra: Mapping[str, Callable[[View], torch.Tensor]] | None = None):
+    def __init__(self, scene: Scene, views: Sequence[View] | None = None, extra: Mapping[str, Callable[[View], torch.Tensor]] | None = None,
+                 device: torch.device | str = "cpu"):  # fmt: skip
         self.views = list(scene.train_views if views is None else views)
-        self.images = [torch.from_numpy(scene.load_image_raw(v)) for v in self.views]
+        self.images = [torch.from_numpy(scene.load_image_raw(v)).to(device) for v in self.views]
         self.extra = {k: [fn(v) for v in self.views] for k, fn in (extra or {}).items()}
 
     def __len__(self) -> int:
@@ -150,7 +151,8 @@ class OptimizationLoop:
         self.optimizers: Optimizers = make_optimizers(self.params, {k: self._lr(k, 0) for k in self.schedules}, adam_eps)
         self.modules = {k: m for k, (m, _) in (modules or {}).items()}
         self.module_optimizers = {k: torch.optim.Adam(m.parameters(), lr=lr, eps=adam_eps) for k, (m, lr) in (modules or {}).items()}
-        self.strategy_state = self.strategy.initialize_state(len(gaussians))
+        self.device = gaussians.means.device  # where the parameters live (CUDA for the gsplat backend)
+        self.strategy_state = self.strategy.initialize_state(len(gaussians), self.device)
         self.trainable_rows = None if trainable_rows is None else trainable_rows.clone().bool()
         self.step_index = 0
         self.order = torch.zeros(0, dtype=torch.long)
@@ -185,14 +187,14 @@ class OptimizationLoop:
 
     def load_state_dict(self, data: dict) -> None:
         self.step_index = int(data["step"])
-        self.params = {k: torch.nn.Parameter(t.clone(), requires_grad=k in self.schedules) for k, t in data["params"].items()}
+        self.params = {k: torch.nn.Parameter(t.to(self.device).clone(), requires_grad=k in self.schedules) for k, t in data["params"].items()}
         self.optimizers = make_optimizers(self.params, {k: self._lr(k, self.step_index) for k in self.schedules}, self.adam_eps)
         for k, o in self.optimizers.items():
             o.load_state_dict(data["optimizers"][k])
         for k, m in self.modules.items():
             m.load_state_dict(data["modules"][k])
             self.module_optimizers[k].load_state_dict(data["module_optimizers"][k])
-        self.strategy_state = {k: v.clone() for k, v in data["strategy"].items()}
+        self.strategy_state = {k: v.to(self.device).clone() for k, v in data["strategy"].items()}
         self.trainable_rows = data["trainable_rows"]
         self.generator = torch.Generator()
         self.generator.set_state(data["generator"])

@@ -39,7 +39,7 @@ class Strategy:
     optimiser step.
     """
 
-    def initialize_state(self, n: int) -> dict[str, torch.Tensor]:
+    def initialize_state(self, n: int, device: torch.device | str = "cpu") -> dict[str, torch.Tensor]:
         return {}
 
     def step_post_backward(
@@ -64,11 +64,11 @@ class DensifyStrategy(Strategy):
         self.cfg = cfg
         self.extent = float(scene_extent)
 
-    def initialize_state(self, n: int) -> dict[str, torch.Tensor]:
+    def initialize_state(self, n: int, device: torch.device | str = "cpu") -> dict[str, torch.Tensor]:
         return {
-            "grad2d": torch.zeros(n),  # accumulated NDC-space gradient norms
-            "count": torch.zeros(n),  # steps each Gaussian was visible
-            "max_radii": torch.zeros(n),  # largest 2D radius (pixels) since the last densification
+            "grad2d": torch.zeros(n, device=device),  # accumulated NDC-space gradient norms
+            "count": torch.zeros(n, device=device),  # steps each Gaussian was visible
+            "max_radii": torch.zeros(n, device=device),  # largest 2D radius (pixels) since the last densification
         }
 
     def accumulate(self, state: dict[str, torch.Tensor], means2d_grad: torch.Tensor, radii: torch.Tensor, width: int, height: int) -> None:
@@ -124,7 +124,8 @@ class DensifyStrategy(Strategy):
         k_ = cfg.split_children
         sel = {k: params[k].detach()[split] for k in params}
         scales = sel["log_scales"].exp().repeat(k_, 1)
-        samples = torch.randn(scales.shape, generator=generator, dtype=scales.dtype) * scales
+        # drawn on the CPU generator whatever the device: the same seed gives the same children
+        samples = torch.randn(scales.shape, generator=generator, dtype=scales.dtype).to(scales.device) * scales
         rots = quat_to_rotmat(sel["quats"]).repeat(k_, 1, 1)
         children = {k: sel[k].repeat(k_, *([1] * (sel[k].ndim - 1))) for k in params}
         children["means"] = torch.bmm(rots, samples[..., None])[..., 0] + children["means"]
@@ -133,12 +134,12 @@ class DensifyStrategy(Strategy):
         append_rows(params, optimizers, new)
 
         n_new = new["means"].shape[0]
-        remove = torch.cat([split, torch.zeros(n_new, dtype=torch.bool)])
+        remove = torch.cat([split, torch.zeros(n_new, dtype=torch.bool, device=split.device)])
         # prune (after densification, over all Gaussians, as the original)
         opac = torch.sigmoid(params["opacity_logits"].detach())
         remove |= opac < cfg.min_opacity
         if prune_big:
-            radii = torch.cat([state["max_radii"], torch.zeros(n_new)])
+            radii = torch.cat([state["max_radii"], torch.zeros(n_new, device=state["max_radii"].device)])
             too_big_screen = radii > cfg.max_screen_size
             too_big_world = params["log_scales"].detach().exp().max(dim=-1).values > cfg.max_world_size * self.extent
             remove |= too_big_screen | too_big_world
@@ -146,7 +147,7 @@ class DensifyStrategy(Strategy):
 
         m = params["means"].shape[0]
         for key in state:
-            state[key] = torch.zeros(m, dtype=state[key].dtype)
+            state[key] = torch.zeros(m, dtype=state[key].dtype, device=state[key].device)
         return DensifyStats(cloned=int(clone.sum()), split=int(split.sum()), pruned=int(remove.sum()) - int(split.sum()))
 
     def _within_cap(self, high: torch.Tensor, small: torch.Tensor, grads: torch.Tensor, n: int) -> torch.Tensor:

@@ -110,7 +110,10 @@ class Trainer:
         self.on_step = on_step
         self.extent = scene.extent
         self.views = scene.train_views
-        self.source = SceneViews(scene, self.views)
+        from inpaint360gs.render.backends import preferred_device
+
+        self.device = preferred_device(self.cfg.backend)  # the GPU for gsplat, else the CPU
+        self.source = SceneViews(scene, self.views, device=self.device)
         for v in scene.holdout_views:  # every input the run reads is decoded now, before any training step
             scene.load_image_raw(v)
         self.fingerprint = scene.fingerprint()
@@ -135,7 +138,7 @@ class Trainer:
         lrs: dict[str, float | Callable[[int], float]] = dict(learning_rates(cfg, self.extent))
         lrs["means"] = lambda step: means_lr(step, cfg, self.extent)  # exponential decay (3DGS)
         self.loop = OptimizationLoop(
-            init_gaussians(self.scene, cfg),
+            init_gaussians(self.scene, cfg).to(self.device),
             train=lrs,
             views=self.source,
             render_fn=self._render,

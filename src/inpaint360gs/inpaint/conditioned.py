@@ -156,13 +156,26 @@ def plane_transfer(camera: Camera, z: np.ndarray, mask: np.ndarray, earlier: lis
         ok = inside & v.mask[iw, iu] & (np.abs(zv[iw, iu] - d) <= 0.05 * d)
         if not ok.any():
             continue
-        sample = cv2.remap(v.color, u[ok].astype(np.float32)[None] - 0.5, w[ok].astype(np.float32)[None] - 0.5, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)[0]
+        sample = _bilinear(v.color, u[ok] - 0.5, w[ok] - 0.5)
         idx = np.flatnonzero(left)[ok]
         color[rows[idx], cols[idx]] = sample
         depth[rows[idx], cols[idx]] = z[rows[idx], cols[idx]]
         done[rows[idx], cols[idx]] = True
         left[idx] = False
     return done
+
+
+def _bilinear(img: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``img`` (H, W, C) sampled bilinearly at pixel coordinates (x, y) (OpenCV remap, edge pixels
+    repeated); the points go in rows of at most 4096 (remap's maps must be under 32767 a side)."""
+    n = len(x)
+    cols = 4096
+    rows = -(-n // cols)
+    pad = rows * cols - n
+    mx = np.pad(x.astype(np.float32), (0, pad)).reshape(rows, cols)
+    my = np.pad(y.astype(np.float32), (0, pad)).reshape(rows, cols)
+    out = cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.reshape(rows * cols, -1)[:n]
 
 
 def _smooth(img: np.ndarray, where: np.ndarray, sigma: float) -> np.ndarray:

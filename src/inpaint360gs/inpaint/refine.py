@@ -213,9 +213,12 @@ def refine(
     Gaussians are culled to the crop once per view and neither projected for gradients nor stepped
     by Adam)."""
     cfg = (cfg or RefineConfig()).resolved()
+    from inpaint360gs.render.backends import preferred_device
+
     views = [v for v in views if v.mask.any()]
     if not views:
         raise InputError("every unseen mask is empty: nothing to inpaint")
+    device = preferred_device(cfg.backend)  # the GPU for gsplat, else the CPU
     degree = scene_model.sh_degree
     if new.sh_degree != degree:
         new = replace(new, shN=torch.zeros(len(new), (degree + 1) ** 2 - 1, 3))
@@ -226,14 +229,16 @@ def refine(
         pts = region if not len(new) else np.concatenate([region, new.means.detach().cpu().double().numpy()])
         active = active_rows(scene_model, pts, cfg.region_margin)
     static = scene_model.subset(~active)
-    model = Gaussians(**{k: torch.cat([getattr(scene_model.subset(active), k), getattr(new, k).detach()], 0) for k in PARAM_NAMES})
+    model = Gaussians(**{k: torch.cat([getattr(scene_model.subset(active), k), getattr(new, k).detach()], 0) for k in PARAM_NAMES}).to(device)
+    static_dev = static.to(device)
     targets = []
     for v in views:
         x0, y0, x1, y1 = rect = crop_rect(v.mask, cfg.crop_margin_px, cfg.crop_margin)
         cam = crop_camera(v.camera, rect)
         targets.append(Target(v.camera.name, cam, {
-            "image": torch.from_numpy(v.color[y0:y1, x0:x1]).float(), "mask": torch.from_numpy(v.mask[y0:y1, x0:x1]),
-            "valid": torch.from_numpy(v.valid[y0:y1, x0:x1]), "static": visible_in(static, cam),
+            "image": torch.from_numpy(v.color[y0:y1, x0:x1]).float().to(device), "mask": torch.from_numpy(v.mask[y0:y1, x0:x1]).to(device),
+            "valid": torch.from_numpy(v.valid[y0:y1, x0:x1]).to(device), "static": visible_in(static, cam).to(device),
+            "mask_cpu": torch.from_numpy(v.mask[y0:y1, x0:x1]),  # where a step's window is drawn (no device round trip)
         }))  # fmt: skip
     tc = TrainConfig(means_lr_max_steps=cfg.iterations)
     lrs: dict = dict(learning_rates(tc, extent))
@@ -245,9 +250,9 @@ def refine(
     def render_fn(g, target, step, gen):
         st = statics.get(target.name)
         if st is None:
-            st = statics[target.name] = static.subset(target.data["static"])
+            st = statics[target.name] = static_dev.subset(target.data["static"])
         full = Gaussians(**{k: torch.cat([getattr(g, k), getattr(st, k)], 0) for k in PARAM_NAMES})
-        cam, rect = target.camera, patch_window(target.data["mask"], cfg.patch_px, gen)
+        cam, rect = target.camera, patch_window(target.data["mask_cpu"], cfg.patch_px, gen)
         window[:] = [(slice(rect[1], rect[3]), slice(rect[0], rect[2]))]
         return render(full, crop_camera(cam, rect), background=torch.zeros(3), backend=cfg.backend)
 
@@ -264,6 +269,6 @@ def refine(
             progress(1)
         if (i + 1) % 50 == 0 or i + 1 == cfg.iterations:
             log.append({"step": i + 1, "loss": res.loss, **res.logs})
-    trained = loop.detached()
+    trained = loop.detached().to("cpu")
     final = Gaussians(**{k: torch.cat([getattr(static, k), getattr(trained, k)], 0) for k in PARAM_NAMES})
     return final, log

@@ -23,7 +23,8 @@ from inpaint360gs.io.atomic import atomic_path
 
 # OpenCV's decoders print a "[ WARN:...]" line of their own on a corrupt file (a truncated PNG),
 # before the one-line error the readers below raise naming the file: keep only errors.
-cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+if hasattr(cv2.utils, "logging"):  # OpenCV >= 4.5 with the logging module (not every build has it)
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
 
 
 def read_image(path: str | Path) -> np.ndarray:

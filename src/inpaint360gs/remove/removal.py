@@ -119,9 +119,12 @@ class RemovalConfig:
     # too. None = off (the authors' code).
     footprint_margin: float | None = 0.05
     footprint_depth: float = 0.1
-    # Selected Gaussians lying on the support (within this x the object's height of the plane) outside
-    # the grown footprint are the support, taken for the object where it touches it: they stay.
+    # Selected Gaussians lying on the support (within ``support_band`` x the object's height of the
+    # plane) farther than ``support_reach`` x the footprint's size from its outline are the support,
+    # taken for the object where it touches it (a segmenter's cluster holding a blob of the mat): they
+    # stay. Nearer, low parts are the object's own (a bucket's teeth, the tracks' lower edge).
     support_band: float = 0.05
+    support_reach: float = 0.25
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
 
 
@@ -336,7 +339,7 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         h = fp.heights(means)
         d = fp.distance(means)
         column = (d <= cfg.footprint_margin * fp.size) & (h > -cfg.footprint_depth * fp.height) & (h <= FOOTPRINT_TOP * fp.height) & ~keep
-        support = remove & body & (d > cfg.footprint_margin * fp.size) & (np.abs(h) <= cfg.support_band * fp.height)
+        support = remove & body & (d > cfg.support_reach * fp.size) & (np.abs(h) <= cfg.support_band * fp.height)
         counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size})
         remove = (remove | column) & ~support
         found.append(fp)

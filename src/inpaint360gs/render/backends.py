@@ -91,6 +91,17 @@ def get_backend(name: str) -> RasterizerBackend:
     return reg[name]
 
 
+def preferred_device(name: str) -> torch.device:
+    """Where a stage that optimises Gaussians with backend ``name`` keeps them: on the GPU for gsplat
+    (and for "auto" when gsplat and CUDA are there), else on the CPU."""
+    b = get_backend("gsplat") if name in ("gsplat", "auto") else None
+    if b is not None and b.available():
+        return torch.device("cuda")
+    if name == "gsplat":
+        raise InputError(f"rasterizer backend 'gsplat' is not available here (available: {', '.join(available_backends())})", "backend")
+    return torch.device("cpu")
+
+
 def resolve_backend(name: str, device: torch.device, dtype: torch.dtype) -> RasterizerBackend:
     """The backend to use for tensors on ``device``: "auto" = the highest-priority available one that runs
     that device and dtype (gsplat on CUDA, numba for float32 on CPU, else torch); a named one is checked."""
@@ -102,6 +113,10 @@ def resolve_backend(name: str, device: torch.device, dtype: torch.dtype) -> Rast
     b = get_backend(name)
     if not b.available():
         raise InputError(f"rasterizer backend {name!r} is not available here (available: {', '.join(available_backends())})", "backend")
+    if b.device_type == "cuda" and device.type == "cpu":
+        # gsplat is the GPU's rasterizer: the stages that optimise keep their Gaussians on the GPU
+        # (preferred_device); what a stage keeps on the CPU renders with the CPU's best backend
+        return resolve_backend("auto", device, dtype)
     if b.device_type != device.type and b.device_type != "any":
         raise InputError(f"the {name} backend runs on {b.device_type.upper()} tensors, got {device}", "backend")
     return b

@@ -1,0 +1,147 @@
+"""Scoring a removal on a capture without ground truth (docs/architecture.md, "Real captures"): the
+no-reference scores of :mod:`inpaint360gs.metrics.capture` applied to a run's models at the scene's
+training and held-out cameras, and a before / removed / inpainted figure.
+
+Inputs are the stage outputs a run leaves: the trained 3DGS, the distilled model (the removal's
+indices refer to it), the removal folder and, when there is one, the inpainting folder.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.support import Footprint, object_footprint
+from inpaint360gs.io.ply import read_ply
+from inpaint360gs.io.scene import Scene
+from inpaint360gs.metrics.capture import psnr_outside, standing_share, texture_ratios
+from inpaint360gs.render.api import render
+
+# What a removal should reach on a real capture (the scores' targets, printed beside them).
+TARGETS = {"outside_drop_db": 0.2, "standing": 0.02, "laplacian": 0.7, "luminance": 0.15}
+
+
+@dataclass
+class CaptureRun:
+    """The stage outputs a score reads (``inpainted`` may be None: removal only)."""
+
+    model: Path  # trained 3DGS PLY
+    distill: Path  # distillation folder (point_cloud.ply with the Gaussians the removal indexes)
+    removed: Path  # removal folder (point_cloud.ply, removed_index.npy)
+    inpainted: Path | None = None  # inpainting folder (point_cloud.ply)
+
+    @staticmethod
+    def of_run(run: str | Path) -> "CaptureRun":
+        """The folders of ``inpaint360gs run``'s OUT."""
+        run = Path(run)
+        inp = run / "inpainted"
+        return CaptureRun(run / "3dgs" / "point_cloud.ply", run / "distill", run / "removed", inp if (inp / "point_cloud.ply").is_file() else None)
+
+
+def footprint_renders(distilled: Gaussians, removed: torch.Tensor, cameras) -> list[np.ndarray]:
+    """Per camera, the removed Gaussians' footprint: pixels they gave at least half the colour."""
+    g = distilled.map(lambda t: t.detach())
+    g.features = removed.to(g.means.dtype)[:, None]
+    out = []
+    with torch.no_grad():
+        for c in cameras:
+            out.append((render(g, c, with_features=True).features[..., 0] >= 0.5).numpy())
+    return out
+
+
+def check_run(scene: Scene, run: CaptureRun) -> None:
+    """The run's outputs must be this scene's and follow from each other (docs/architecture.md,
+    "Provenance chain"): the model, the distillation, the removal made from it, the inpainting made
+    from that removal."""
+    from inpaint360gs.io import provenance
+
+    provenance.check_model(run.model, scene)
+    made = provenance.of_stage(run.distill, "distill")
+    removal = provenance.of_stage(run.removed, "remove")
+    provenance.check_scene(made, scene, "give this scene's distillation")
+    provenance.check_scene(removal, scene, "give this scene's removal")
+    provenance.check_link(removal, "distill", made and made.identity, run.distill, "give the distillation the removal was made from")
+    if run.inpainted is not None:
+        inp = provenance.of_stage(run.inpainted, "inpaint")
+        provenance.check_link(inp, "removal", removal and removal.identity, run.removed, "give the removal the inpainting was made from")
+
+
+def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: int = 20) -> tuple[dict, dict]:
+    """(scores, renders): PSNR outside the footprint grown by ``grow_px`` per split and model, the
+    share standing in the footprint column after removal and after inpainting, the fill's texture
+    ratios against a ``ring_px`` ring at the training cameras; ``renders[model][view name]``.
+    :class:`InputError` when the run's outputs do not belong together (:func:`check_run`)."""
+    from inpaint360gs.segment.frame import camera_up
+
+    check_run(scene, run)
+    distilled = read_ply(run.distill / "point_cloud.ply")
+    index = np.load(run.removed / "removed_index.npy")
+    removed = torch.zeros(len(distilled), dtype=torch.bool)
+    removed[torch.from_numpy(index.astype(np.int64))] = True
+    models = {"3dgs": read_ply(run.model), "removed": read_ply(run.removed / "point_cloud.ply")}
+    if run.inpainted is not None:
+        models["inpainted"] = read_ply(run.inpainted / "point_cloud.ply")
+    splits = {"train": scene.train_views, "held-out": scene.holdout_views}
+    views = splits["train"] + splits["held-out"]
+    fps = dict(zip((v.name for v in views), footprint_renders(distilled, removed, [v.camera for v in views])))
+    scores: dict = {"psnr_outside": {}, "texture": {}, "standing": {}}
+    renders: dict[str, dict[str, np.ndarray]] = {k: {} for k in models}
+    with torch.no_grad():
+        for split, vs in splits.items():
+            for name, g in models.items():
+                vals = []
+                for v in vs:
+                    img = render(g, v.camera).color.clamp(0, 1).numpy()
+                    renders[name][v.name] = img
+                    vals.append(psnr_outside(img, scene.load_image(v).numpy(), fps[v.name], grow_px))
+                scores["psnr_outside"].setdefault(split, {})[name] = float(np.nanmean(vals)) if vals else None
+    for name in models:
+        if name == "3dgs":
+            continue
+        ratios = [r for v in splits["train"] if (r := texture_ratios(renders[name][v.name], fps[v.name], ring_px)) is not None]
+        scores["texture"][name] = {
+            "laplacian": float(np.nanmean([r.laplacian for r in ratios])) if ratios else None,
+            "luminance": float(np.nanmean([r.luminance for r in ratios])) if ratios else None,
+            "views": len(ratios),
+        }
+    means = distilled.means.detach().double().numpy()
+    opac = distilled.opacities.detach().double().numpy()
+    rm = removed.numpy()
+    fp: Footprint = object_footprint(means[rm], opac[rm], means[~rm], opac[~rm], camera_up([v.camera for v in scene.train_views]))
+    scores["object_height"] = fp.height
+    for name in ("removed", "inpainted"):
+        if name in models:
+            m = models[name]
+            share, count = standing_share(m.means.detach().double().numpy(), m.opacities.detach().double().numpy(), fp)
+            scores["standing"][name] = {"share": share, "count": count}
+    return scores, renders
+
+
+def figure(renders: dict[str, dict[str, np.ndarray]], names: list[str]) -> np.ndarray:
+    """Rows 3DGS / removed / inpainted (those present), columns the views ``names``."""
+    rows = [np.concatenate([renders[k][n] for n in names], axis=1) for k in ("3dgs", "removed", "inpainted") if k in renders]
+    return np.concatenate(rows, axis=0)
+
+
+def format_scores(scores: dict) -> str:
+    """The scores as the lines ``bench_capture.py`` and ``inpaint360gs capture-scores`` print."""
+    t = TARGETS
+    lines = ["PSNR outside the footprint grown by the margin (dB), mean over views:", f"  {'split':10s} {'3dgs':>8s} {'removed':>8s} {'inpainted':>10s} {'inp-rem':>8s}"]
+    for split, row in scores["psnr_outside"].items():
+        inp = row.get("inpainted")
+        diff = f"{inp - row['removed']:+8.2f}" if inp is not None else "     n/a"
+        inp_s = f"{inp:10.2f}" if inp is not None else "       n/a"
+        lines.append(f"  {split:10s} {row['3dgs']:8.2f} {row['removed']:8.2f} {inp_s} {diff}   (target >= -{t['outside_drop_db']})")
+    lines.append(f"Standing in the footprint column (> 10% of the object's height {scores['object_height']:.4g} above the support), opacity-weighted:")
+    for name, s in scores["standing"].items():
+        lines.append(f"  {name:10s} {100 * s['share']:6.2f} %  ({s['count']} Gaussians)   (target <= {100 * t['standing']:.0f} %)")
+    lines.append("Fill texture at the training cameras, inside the footprint / ring:")
+    for name, x in scores["texture"].items():
+        lap = "n/a" if x["laplacian"] is None else f"{x['laplacian']:.2f}"
+        lum = "n/a" if x["luminance"] is None else f"{x['luminance']:.2f}"
+        lines.append(f"  {name:10s} |Laplacian| {lap:>5s} (target >= {t['laplacian']})   luminance {lum:>5s} (target 1 +- {t['luminance']})   over {x['views']} views")
+    return "\n".join(lines)
