@@ -2,8 +2,8 @@
 method against the two naive baselines and with each ablation switch b)-e) turned off alone, plus
 multi-view consistency and stage times.
 
-It reads what the workflow wrote (``make benchmark``: ``OUT/<scene>/<segmenter>/eval/<method>.json``
-from ``inpaint360gs evaluate``, ``OUT/<scene>/<segmenter>/methods/<method>/inpaint.json`` from
+It reads what the workflow wrote (``make benchmark``: ``OUT/<scene>/seed<k>/<segmenter>/eval/<method>.json``
+from ``inpaint360gs evaluate``, ``OUT/<scene>/seed<k>/<segmenter>/methods/<method>/inpaint.json`` from
 ``inpaint360gs inpaint``), so every number comes from the stages as users run them; scenes where a
 method is missing are listed and left out of every average (all averages cover the same scenes).
 
@@ -28,7 +28,7 @@ Printed:
 * seconds of the inpainting stage per scene and part (virtual views, masks, 2D, 3D), and the whole
   pipeline's stage times from the workflow's ``benchmark:`` files.
 
-    python benchmarks/bench_inpaint.py --out outputs [--data data/synthetic] [--segmenter geometric] [--scenes cone toys]
+    python benchmarks/bench_inpaint.py --out outputs [--data data/synthetic] [--segmenter geometric] [--seed 0] [--scenes cone toys]
 
 Each comparison is averaged over the scenes that have both of its runs (the ablations run on a
 subset of scenes; the baselines on every scene), and the printed lines name those scenes.
@@ -108,7 +108,7 @@ def fill_geometry(args, scenes: list[str]) -> None:
         gt_tex = mean_of(texture(scene.load_image(v, allow_test=True).numpy(), scene.load_mask(v)) for v in scene.test_views)
         print(f"| {s} | ground truth | — | — | — | {fmt(gt_tex, 4)} |")
         for m in ("full", "abl_b", "per_view_2d", "removal_only"):
-            ply = model_of(args.out, s, args.segmenter, m)
+            ply = model_of(args.out, s, args.run, m)
             if not ply.is_file():
                 continue
             g = read_ply(ply)
@@ -134,15 +134,17 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, required=True, help="the workflow's out_dir")
     ap.add_argument("--segmenter", default="geometric")
+    ap.add_argument("--seed", type=int, default=0, help="which of the workflow's seeds (its outputs sit under OUT/<scene>/seed<k>/)")
     ap.add_argument("--scenes", nargs="*", default=None, help="default: every scene with results")
     ap.add_argument("--data", type=Path, default=None, help="synthetic scenes folder: also measure the fill's geometry against gt/depth")
     ap.add_argument("--threads", type=int, default=2)
     args = ap.parse_args()
+    args.run = f"seed{args.seed}/{args.segmenter}"  # a run's folder under OUT/<scene>/ (and OUT/benchmarks/<scene>/)
 
-    scenes = args.scenes or sorted(p.parent.parent.name for p in args.out.glob(f"*/{args.segmenter}/eval"))
-    ev = {s: {m: read_json(args.out / s / args.segmenter / "eval" / f"{m}.json") for m in METHODS} for s in scenes}
+    scenes = args.scenes or sorted(p.parent.parent.parent.name for p in args.out.glob(f"*/{args.run}/eval"))
+    ev = {s: {m: read_json(args.out / s / args.run / "eval" / f"{m}.json") for m in METHODS} for s in scenes}
     present = [m for m in METHODS if any(ev[s][m] for s in scenes)]
-    print(f"segmenter {args.segmenter}; methods {present}; scenes {scenes}")
+    print(f"segmenter {args.segmenter}, seed {args.seed}; methods {present}; scenes {scenes}")
 
     def val(s, m, k):
         e = ev[s][m]
@@ -196,7 +198,7 @@ def main() -> int:
     print("| scene | with conditioning (full) | without (abl_d) | share of pixels filled from earlier views |\n|---|---|---|---|")
     complete = having("full", "abl_d")
     for s in complete:
-        rec = {m: read_json(args.out / s / args.segmenter / "methods" / m / "inpaint.json") for m in ("full", "abl_d")}
+        rec = {m: read_json(args.out / s / args.run / "methods" / m / "inpaint.json") for m in ("full", "abl_d")}
         e = {m: (r or {}).get("reprojection_error") for m, r in rec.items()}
         print(f"| {s} | {fmt(e['full'], 4)} | {fmt(e['abl_d'], 4)} | {fmt((rec['full'] or {}).get('filled_from_earlier_views'), 3)} |")
 
@@ -205,7 +207,7 @@ def main() -> int:
     parts = ["visibility_s", "cameras_s", "occluders_s", "unseen_masks_s", "inpaint_2d_s", "init_s", "refine_3d_s", "total_s"]
     print("| scene | " + " | ".join(parts) + " |\n|" + "---|" * (len(parts) + 1))
     for s in complete:
-        r = read_json(args.out / s / args.segmenter / "methods" / "full" / "inpaint.json") or {}
+        r = read_json(args.out / s / args.run / "methods" / "full" / "inpaint.json") or {}
         sec = r.get("seconds", {})
         print(f"| {s} | " + " | ".join(fmt(sec.get(p), 1) for p in parts) + " |")
 
@@ -215,12 +217,12 @@ def main() -> int:
     for s in complete:
         paths = {
             "train_3dgs": b / s / "train_3dgs.tsv",
-            "segment": b / s / args.segmenter / "segment.tsv",
-            "associate": b / s / args.segmenter / "kom" / "associate.tsv",
-            "distill": b / s / args.segmenter / "kom" / "distill.tsv",
-            "remove": b / s / args.segmenter / "kom" / "remove.tsv",
-            "inpaint": b / s / args.segmenter / "methods" / "full" / "inpaint.tsv",
-            "evaluate": b / s / args.segmenter / "methods" / "full" / "evaluate.tsv",
+            "segment": b / s / args.run / "segment.tsv",
+            "associate": b / s / args.run / "kom" / "associate.tsv",
+            "distill": b / s / args.run / "kom" / "distill.tsv",
+            "remove": b / s / args.run / "kom" / "remove.tsv",
+            "inpaint": b / s / args.run / "methods" / "full" / "inpaint.tsv",
+            "evaluate": b / s / args.run / "methods" / "full" / "evaluate.tsv",
         }
         secs = {k: bench_seconds(p) for k, p in paths.items()}
         total = sum(v for v in secs.values() if v is not None)

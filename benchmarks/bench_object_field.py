@@ -22,7 +22,7 @@ Ground truth is read here only, for scoring; the method stages never see it (exc
 segmenter, whose rows are labelled).
 
     python benchmarks/bench_object_field.py --data data/synthetic --models outputs --work outputs/bench_object_field --scenes all
-    python benchmarks/bench_object_field.py --data data/synthetic --workflow outputs --variants geometric/kom geometric/tracker   # score the workflow's runs
+    python benchmarks/bench_object_field.py --data data/synthetic --workflow outputs --variants geometric/kom geometric/tracker   # score the workflow's runs (--seed: which seed's)
 """
 
 from __future__ import annotations
@@ -146,7 +146,8 @@ def run_variant(scene_dir: Path, model: Path, out: Path, segmenter: str, associa
 
 def workflow_variant(out: Path, scene_dir: Path, name: str, segmenter: str, association: str) -> dict:
     """The same stages as the workflow ran them (``make benchmark``): folders under
-    ``OUT/<scene>/<segmenter>/<association>/``, stage seconds from its ``benchmark:`` files."""
+    ``OUT/<scene>/seed<k>/<segmenter>/<association>/`` (``segmenter`` = ``seed<k>/<segmenter>``),
+    stage seconds from its ``benchmark:`` files."""
     from types import SimpleNamespace
 
     from inpaint360gs.core.errors import InputError
@@ -176,6 +177,7 @@ def main() -> int:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--json", type=Path, default=None, help="also write the rows here")
     ap.add_argument("--workflow", type=Path, default=None, help="score what the workflow wrote under this out_dir instead of running the stages")
+    ap.add_argument("--seed", type=int, default=0, help="with --workflow: which of its seeds (OUT/<scene>/seed<k>/)")
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT))
     from inpaint360gs.cli.common import set_threads
@@ -193,9 +195,10 @@ def main() -> int:
         for variant in args.variants:
             segmenter, association = variant.split("/")
             if args.workflow is not None:
-                if not (args.workflow / name / segmenter / association / "removed" / "removal.json").is_file():
+                run = f"seed{args.seed}/{segmenter}"
+                if not (args.workflow / name / run / association / "removed" / "removal.json").is_file():
                     continue
-                r = workflow_variant(args.workflow, scene_dir, name, segmenter, association)
+                r = workflow_variant(args.workflow, scene_dir, name, run, association)
             else:
                 r = run_variant(scene_dir, model, args.work / name / variant.replace("/", "_"), segmenter, association, args.threads)
             lay = r["runner"].layout

@@ -19,6 +19,7 @@ def main() -> int:
     ap.add_argument("--out", type=Path, required=True, help="the workflow's out_dir")
     ap.add_argument("--scene", required=True)
     ap.add_argument("--segmenter", default="geometric")
+    ap.add_argument("--seed", type=int, default=0, help="which of the workflow's seeds (OUT/<scene>/seed<k>/)")
     ap.add_argument("--views", type=int, default=4, help="test views, spread evenly")
     ap.add_argument("--image", type=Path, required=True, help="output file; the format follows the suffix (.jpg keeps it small)")
     ap.add_argument("--gif", type=Path, default=None, help="also a light copy of the full method's trajectory GIF (every 2nd frame, 128 colours)")
@@ -35,7 +36,7 @@ def main() -> int:
     tests = scene.test_views
     pick = [tests[i] for i in np.linspace(0, len(tests) - 1, min(args.views, len(tests))).round().astype(int)]
     model = read_ply(args.out / args.scene / "3dgs" / "point_cloud.ply")
-    run = args.out / args.scene / args.segmenter
+    run = args.out / args.scene / f"seed{args.seed}" / args.segmenter
     rows = [[], [], [], []]
     for v in pick:
         rows[0].append(render(model, v.camera).color.clamp(0, 1).numpy())

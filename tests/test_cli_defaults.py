@@ -23,6 +23,8 @@ from inpaint360gs.pipeline.run import STAGES as RUN_STAGES
 from inpaint360gs.pipeline.run import RunConfig
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.stage import removal_stage
+from inpaint360gs.report.amcr import removal_amcr
+from inpaint360gs.report.geometry import depth_off
 from inpaint360gs.render.api import render
 from inpaint360gs.segment.cluster3d import ClusterConfig
 from inpaint360gs.segment.geometric import GeometricConfig
@@ -39,7 +41,7 @@ SOURCES = {
     "remove": [RemovalConfig, removal_stage],
     "inpaint": [InpaintConfig],
     "run": [RunConfig, InpaintConfig],
-    "evaluate": [evaluate_renders],
+    "evaluate": [evaluate_renders, removal_amcr, depth_off],
     "distill": [DistillConfig],
     "capture-scores": [],
     "table": [],
@@ -60,7 +62,7 @@ RENAMED = {
 }
 # options that are no stage setting (what to read, where to write, how to run, what to show)
 NOT_SETTINGS = {
-    "overwrite", "no_progress", "threads", "resume", "allow_unregistered", "click", "id", "model", "until", "preset", "split",
+    "overwrite", "no_progress", "threads", "resume", "removal", "allow_unregistered", "click", "id", "model", "until", "preset", "split",
     "white_background", "inception_weights", "inpainted", "figure", "views_capture", "sam_encoder", "sam_decoder",
     "no_protect_support",  # a switch: protect_support 0
 }  # fmt: skip

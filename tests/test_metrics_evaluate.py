@@ -101,20 +101,39 @@ def test_values_match_the_metric_functions_and_nulls_have_reasons(scene):
 
     # means: over the views where the metric is defined, with the count stated
     counts = res["num_views_mean"]
-    assert counts["ssim"] == 4 and counts["masked_ssim"] == 3 and counts["roi_ssim"] == 2 and counts["amcr"] == 3
+    assert counts["ssim"] == 4 and counts["masked_ssim"] == 3 and counts["roi_ssim"] == 2 and counts["unseen_share"] == 3
     ssims = [res["per_view"][f"test_{i:03d}.png"]["roi_ssim"] for i in (0, 3)]
     assert res["mean"]["roi_ssim"] == pytest.approx(sum(ssims) / 2)
     assert res["mean"]["lpips"] == pytest.approx(np.mean([res["per_view"][x]["lpips"] for x in res["views"]]))
-    # AMCR over the 3 views with a mask file: 600 of 3072 pixels twice, 0 once
-    assert res["scene_metrics"]["amcr"] == pytest.approx(100 * (600 / 3072 * 2) / 3)
+    # the unseen share over the 3 views with a mask file: 600 of 3072 pixels twice, 0 once; no removal given: no AMCR
+    assert res["scene_metrics"]["unseen_share"] == pytest.approx(100 * (600 / 3072 * 2) / 3)
+    assert res["scene_metrics"]["amcr"] is None and "--removal" in res["null_reasons"]["scene_metrics"]["amcr"]
 
     sm = res["scene_metrics"]
     assert sm["fid"] is None and "Inception" in res["null_reasons"]["scene_metrics"]["fid"]
     assert math.isfinite(sm["fd_vgg16"]) and sm["fd_vgg16"] > 0 and math.isfinite(sm["kid_vgg16"])
     assert set(res["conventions"]) == {"full", "masked", "roi"}
-    assert {"fid", "fd_vgg16", "kid_vgg16", "amcr"} <= set(res["definitions"])
+    assert {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr"} <= set(res["definitions"])
     assert all(len(w["sha256"]) == 64 for k, w in res["weights"].items() if k.startswith("lpips"))
     assert res["weights"]["inception"] is None
+
+
+def test_amcr_of_given_removal_masks(scene):
+    """AMCR (supp. Eq. 1) of hand-made removal masks: the mean over every test view of the percentage
+    of its pixels in the mask, apart from the unseen share; a missing or misshapen mask is refused."""
+    root, renders = scene
+    masks = {f"test_{i:03d}.png": np.zeros((H, W), bool) for i in range(4)}
+    masks["test_000.png"][:, :16] = True  # a quarter of the view
+    masks["test_001.png"][:] = True
+    masks["test_003.png"][0, :3] = True
+    res = evaluate_renders(renders, root, nets=("alex",), removal_masks=masks)
+    assert res["scene_metrics"]["amcr"] == pytest.approx((25.0 + 100.0 + 0.0 + 100 * 3 / (H * W)) / 4)
+    assert res["num_views_mean"]["amcr"] == 4 and "amcr" not in res["null_reasons"]["scene_metrics"]
+    assert res["scene_metrics"]["unseen_share"] == pytest.approx(100 * (600 / 3072 * 2) / 3)
+    with pytest.raises(InputError, match="no removal mask for test view test_002.png"):
+        evaluate_renders(renders, root, nets=("alex",), removal_masks={k: v for k, v in masks.items() if k != "test_002.png"})
+    with pytest.raises(InputError, match="removal mask of test_001.png is"):
+        evaluate_renders(renders, root, nets=("alex",), removal_masks={**masks, "test_001.png": np.ones((H, W + 1), bool)})
 
 
 def test_fid_with_a_weights_file_and_one_net_only(scene, generated_inception):  # noqa: F811
@@ -179,7 +198,7 @@ def test_scene_without_test_views_reports_no_ground_truth(tmp_path, capsys):
     assert res["num_views"] == 0 and res["views"] == [] and res["per_view"] == {}
     assert list(res["mean"]) == metric_names(("vgg", "alex")) and set(res["mean"].values()) == {None}
     assert set(res["null_reasons"]["mean"].values()) == {NO_GROUND_TRUTH}
-    assert set(res["scene_metrics"]) == {"fid", "fd_vgg16", "kid_vgg16", "amcr"} and set(res["scene_metrics"].values()) == {None}
+    assert set(res["scene_metrics"]) == {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off"} and set(res["scene_metrics"].values()) == {None}
     assert set(res["null_reasons"]["scene_metrics"].values()) == {NO_GROUND_TRUTH}
 
     out = tmp_path / "m.json"

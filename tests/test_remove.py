@@ -628,3 +628,32 @@ def test_footprint_column_takes_what_stands_on_the_object_s_footprint_and_the_co
     # without the step the underside, the floor under the box and the floaters stay
     off = remove_objects(field, [3], RemovalConfig(hull=False, footprint_margin=None), up=up).removed_mask.numpy()
     assert not off[np.isin(part, [1, 4, 5])].any() and off[part == 2].any()
+
+
+def test_footprint_column_tells_a_flat_part_of_the_object_from_support_taken_for_it_by_colour():
+    """Two low selected patches far from a box's outline (beyond the support reach): a flat red part
+    of the object (a cone's base) and a patch of the grey floor the field took for the object. The
+    floor's colour around the footprint decides: the red part goes with the object, the grey patch
+    stays; with every colour alike, both would stay."""
+    from inpaint360gs.core.gaussians import SH_C0
+
+    rng = np.random.default_rng(6)
+    g = np.linspace(-1.0, 1.0, 81)
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    beside = (floor[:, 0] > 0.45) & (floor[:, 0] < 0.6) & (np.abs(floor[:, 1]) < 0.1)
+    box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
+    base = np.c_[rng.uniform(-0.5, -0.4, (60, 1)), rng.uniform(-0.2, 0.2, (60, 1)), rng.uniform(0.004, 0.02, 60)]
+    field, part = hand_field([(floor[~beside], 0), (floor[beside], 1), (box, 1), (base, 1)])
+    colours = np.clip(0.5 + rng.normal(0, 0.04, (len(part), 3)), 0, 1)  # grey floor with some texture
+    colours[part == 3] = (0.8, 0.1, 0.1)
+    with torch.no_grad():
+        field.gaussians.sh0[:, 0] = torch.tensor((colours - 0.5) / SH_C0, dtype=torch.float32)
+    up = np.array([0.0, 0.0, 1.0])
+    res = remove_objects(field, [3], RemovalConfig(hull=False), up=up)
+    removed = res.removed_mask.numpy()
+    assert removed[part == 3].all() and removed[part == 2].all()
+    assert not removed[part == 1].any()
+    assert res.counts["footprint"][0]["support_kept"] > 0  # the grey patch's part the selection took
+    field.gaussians.sh0[:, 0] = 0.0  # every colour alike: the red part would count as support too
+    assert not remove_objects(field, [3], RemovalConfig(hull=False), up=up).removed_mask.numpy()[part == 3].all()

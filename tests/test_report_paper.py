@@ -27,7 +27,7 @@ def eval_json(path: Path, psnr: float, ssim: float, lpips: float, fid: float | N
         mean[k] = base + (10.0 if k == "masked_psnr" else -1.0 if k == "roi_psnr" else 0.0)
     data = {
         "scene": "data/x", "num_views": 3, "mean": mean,
-        "scene_metrics": {"fid": fid, "fd_vgg16": fd, "kid_vgg16": 0.01, "amcr": 5.0},
+        "scene_metrics": {"fid": fid, "fd_vgg16": fd, "kid_vgg16": 0.01, "unseen_share": 5.0, "amcr": 6.0, "roi_depth_off": 10.0},
         "null_reasons": {"per_view": {}, "mean": {}, "scene_metrics": {} if fid is not None else {"fid": "no Inception weights"}},
         "weights": {"lpips_vgg": {"path": "/somewhere/vgg16.ckpt", "sha256": SHA}, "inception": None},
     }
@@ -92,14 +92,17 @@ def test_record_without_ground_truth_needs_a_reason(tmp_path, capsys):
 
 # --- the paper's tables ------------------------------------------------------------------------
 
-# (method, segmenter, kind, extra labels) -> scene -> (psnr, ssim, lpips)
+# (method, segmenter, kind, extra labels) -> scene -> (psnr, ssim, lpips); every run at seeds 0 and 1,
+# seed k adding 0.3 * k to the PSNR (so differences between rows are the same at both seeds)
 RUNS = {
     ("spin", "none", "baseline", (("name", "SPIn-NeRF"),)): {"s1": (20, 0.95, 0.5), "s2": (21, 0.95, 0.4)},  # no s3
     ("gaug", "none", "baseline", (("name", "GauGroup"),)): {"s1": (24, 0.7, 0.3), "s2": (22, 0.7, 0.1), "s3": (23, 0.7, 0.2)},
     ("full", "geometric", "method", ()): {"s1": (25, 0.8, 0.1), "s2": (27, 0.9, 0.2), "s3": (26, 0.85, 0.15)},
-    ("wo_depth_init", "geometric", "ablation", ()): {"s1": (24, 0.8, 0.2), "s2": (25, 0.8, 0.2), "s3": (1, 0.1, 0.9)},
+    ("wo_depth_init", "geometric", "ablation", ()): {"s1": (24, 0.8, 0.2), "s2": (25, 0.8, 0.2)},  # its own block: no s3
     ("tracker", "geometric", "ablation", (("ablation", "a"), ("name", "2D tracker association"))): {"s1": (23, 0.7, 0.3), "s2": (24, 0.7, 0.3), "s3": (1, 0.1, 0.9)},
+    ("wo_hybrid", "geometric", "ablation", ()): {"s1": (25.1, 0.8, 0.1), "s2": (26.9, 0.9, 0.2), "s3": (26, 0.85, 0.15)},  # no effect
 }
+SEEDS = (0, 1)
 # stage -> seconds per (method, scene); gaug has only a training stage
 STAGES = {
     ("full", "s1"): {"train": (100, 140), "inpaint": (60,), "evaluate": (30,)},
@@ -115,16 +118,18 @@ def records(tmp_path, capsys) -> list[str]:
     paths = []
     for (method, seg, kind, extra), scenes in RUNS.items():
         for scene, (psnr, ssim, lpips) in scenes.items():
-            d = tmp_path / "runs" / method / scene
-            args = ["--eval", eval_json(d / "eval.json", psnr, ssim, lpips, fd=100 - psnr)]
-            for stage, secs in STAGES.get((method, scene), {}).items():
-                args += ["--stage", f"{stage}={bench(d / f'{stage}.tsv', *secs)}"]
-            if method == "full":
-                (d / "point_cloud.ply").write_bytes(b"ply\n" + bytes(1_999_996))
-                args += ["--model", str(d / "point_cloud.ply")]
-            paths.append(record(capsys, d / "record.json", {"scene": scene, "method": method, "segmenter": seg, "kind": kind, **dict(extra)}, *args))
+            for seed in SEEDS:
+                d = tmp_path / "runs" / method / scene / str(seed)
+                args = ["--eval", eval_json(d / "eval.json", psnr + 0.3 * seed, ssim, lpips, fd=100 - psnr)]
+                for stage, secs in STAGES.get((method, scene), {}).items():
+                    args += ["--stage", f"{stage}={bench(d / f'{stage}.tsv', *secs)}"]
+                if method == "full":
+                    (d / "point_cloud.ply").write_bytes(b"ply\n" + bytes(1_999_996))
+                    args += ["--model", str(d / "point_cloud.ply")]
+                labels = {"scene": scene, "method": method, "segmenter": seg, "kind": kind, "seed": seed, **dict(extra)}
+                paths.append(record(capsys, d / "record.json", labels, *args))
     # a scene without ground truth: listed, never averaged
-    paths.append(record(capsys, tmp_path / "runs" / "full" / "s4" / "record.json", {"scene": "s4", "method": "full", "segmenter": "geometric"},
+    paths.append(record(capsys, tmp_path / "runs" / "full" / "s4" / "record.json", {"scene": "s4", "method": "full", "segmenter": "geometric", "seed": 0},
                         "--skip-reason", "no object-free captures"))
     return paths
 
@@ -134,7 +139,29 @@ def _paper(capsys, tmp_path, paths, *extra) -> tuple[int, str]:
     return code, err
 
 
-def test_paper_tables_averages_marks_and_scene_sets(tmp_path, capsys, records):
+def _read(csv: Path) -> pd.DataFrame:
+    """A table's CSV with numbers as numbers and the empty text cells (marks, labels) as ''."""
+    df = pd.read_csv(csv)
+    for c in df.columns:
+        if df[c].dtype == object or c.endswith("_mark"):
+            df[c] = df[c].astype(object).where(df[c].notna(), "")
+    return df
+
+
+def _md_rows(md: str) -> dict[str, list[str]]:
+    return {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]] for line in md.splitlines() if line.startswith("| ") and "---" not in line}
+
+
+def _runs(method: str, metric: str, scenes=("s1", "s2")) -> dict:
+    """The fixture's values of ``metric`` per (scene, seed), as the tables pair them."""
+    key = next(k for k in RUNS if k[0] == method)
+    i = {"psnr": 0, "ssim": 1, "lpips": 2}[metric]
+    return {(s, str(k)): RUNS[key][s][i] + (0.3 * k if metric == "psnr" else 0.0) for s in scenes for k in SEEDS}
+
+
+def test_table1_means_seed_spread_intervals_and_marks(tmp_path, capsys, records):
+    from inpaint360gs.report.stats import bootstrap_mean, paired_difference, seed_spread
+
     cfg = tmp_path / "config.yaml"
     cfg.write_text("seed: 7\nscenes: [s1, s2]\n")
     code, err = _paper(capsys, tmp_path, records, "--config", str(cfg))
@@ -145,79 +172,118 @@ def test_paper_tables_averages_marks_and_scene_sets(tmp_path, capsys, records):
         assert {f"{t}.csv", f"{t}.md", f"{t}.tex"} <= names
     assert "provenance.json" in names and not [n for n in names if n.startswith(".")]
 
-    # Tab. 1: spin has no s3, so every method averages s1 and s2 only (s3 named as left out)
-    t1 = pd.read_csv(out / "table1_average.csv").set_index("method")
-    assert list(t1.index) == ["spin", "gaug", "full"]  # baselines first, the method last (paper order)
-    assert t1.loc["full", "psnr"] == pytest.approx(26.0) and t1.loc["gaug", "psnr"] == pytest.approx(23.0)
-    assert t1.loc["spin", "psnr"] == pytest.approx(20.5) and t1.loc["full", "masked_psnr"] == pytest.approx(36.0)
-    assert t1.loc["full", "roi_psnr"] == pytest.approx(25.0) and t1.loc["full", "ssim"] == pytest.approx(0.85)
-    assert t1.loc["gaug", "lpips"] == pytest.approx(0.2) and t1.loc["full", "masked_lpips"] == pytest.approx(0.15)
-    assert (t1["n_scenes"] == 2).all() and set(t1["segmenter"]) == {"none", "geometric"}
-    assert "fid" not in t1.columns and t1.loc["full", "fd_vgg16"] == pytest.approx(74.0)  # FID null -> labelled substitute
+    # means over the runs every row has (spin has no s3: s1 and s2 at both seeds), baselines first
+    t1 = _read(out / "table1_average.csv")
+    means = t1[t1["row_type"] == "mean"].set_index("method")
+    assert list(means.index) == ["spin", "gaug", "full"]
+    assert means.loc["full", "psnr"] == pytest.approx(26.15) and means.loc["gaug", "psnr"] == pytest.approx(23.15)
+    assert means.loc["full", "masked_psnr"] == pytest.approx(36.15) and means.loc["full", "roi_psnr"] == pytest.approx(25.15)
+    assert means.loc["full", "ssim"] == pytest.approx(0.85) and means.loc["gaug", "lpips"] == pytest.approx(0.2)
+    assert (means["n_runs"] == 4).all() and "fid" not in t1.columns and means.loc["full", "fd_vgg16"] == pytest.approx(74.0)
+    # the seed spread: seeds 0 and 1 average to 26.0 and 26.3
+    assert means.loc["full", "psnr_std"] == pytest.approx(seed_spread(_runs("full", "psnr"))) == pytest.approx(0.3 / math.sqrt(2))
+    assert means.loc["full", "unseen_share"] == pytest.approx(5.0) and means.loc["full", "amcr"] == pytest.approx(6.0)
+    # Δ rows: the method minus each baseline, paired over (scene, seed), with the bootstrap interval
+    diffs = t1[t1["row_type"] == "difference"].set_index("vs")
+    assert list(diffs.index) == ["spin", "gaug"] and set(diffs["method"]) == {"full"}
+    d = [_runs("full", "lpips")[r] - _runs("gaug", "lpips")[r] for r in sorted(_runs("full", "lpips"))]
+    assert diffs.loc["gaug", "lpips"] == pytest.approx(-0.05)
+    assert (diffs.loc["gaug", "lpips_ci_low"], diffs.loc["gaug", "lpips_ci_high"]) == pytest.approx(bootstrap_mean(d))
+    iv = paired_difference(_runs("full", "psnr"), _runs("gaug", "psnr"))
+    assert diffs.loc["gaug", "psnr"] == pytest.approx(3.0) and diffs.loc["gaug", "psnr_ci_low"] == pytest.approx(iv.low) and iv.low > 0
+    assert diffs.loc["gaug", "psnr_mark"] == "better" and diffs.loc["gaug", "lpips_mark"] == "tied"
+    assert diffs.loc["spin", "ssim_mark"] == "worse"
+    # marks: PSNR full better than both (intervals exclude 0), SSIM spin better than both; LPIPS full and
+    # gaug cannot be told apart (full -0.2 on s1, +0.1 on s2): tied for first, spin not
+    assert means.loc["full", "psnr_mark"] == "best" and means.loc["spin", "ssim_mark"] == "best"
+    assert means.loc["full", "lpips_mark"] == "tied" and means.loc["gaug", "lpips_mark"] == "tied" and means.loc["spin", "lpips_mark"] == ""
+    assert means.loc["gaug", "psnr_mark"] == "" and means.loc["full", "amcr_mark"] == ""
+
     md = (out / "table1_average.md").read_text()
-    assert "FID substitute" in md and "no Inception weights" in md
-    assert "Scene s3 is left out of every average: gaug/none, full/geometric have metrics there, spin/none not" in md
-    assert "Averaged over 2 scene(s): s1, s2." in md
-    assert "Scene s4 of full/geometric has no metrics (no object-free captures)" in md
-    # marks: PSNR full > gaug > spin (higher better); SSIM spin > full > gaug; LPIPS full < gaug < spin (lower better)
-    rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]] for line in md.splitlines() if line.startswith("| ") and "---" not in line}
-    assert rows["full"][4] == "**26.00**"
-    assert rows["GauGroup"][4] == "<ins>23.00</ins>" and rows["SPIn-NeRF"][4] == "_20.50_"
-    assert rows["SPIn-NeRF"][7] == "**0.9500**" and rows["full"][7] == "<ins>0.8500</ins>" and rows["GauGroup"][7] == "_0.7000_"
-    assert rows["full"][10] == "**0.1500**" and rows["GauGroup"][10] == "<ins>0.2000</ins>" and rows["SPIn-NeRF"][10] == "_0.4500_"
+    rows = _md_rows(md)
+    assert rows["full"][4] == "**26.15 ± 0.21**" and rows["GauGroup"][4] == "23.15 ± 0.21" and rows["SPIn-NeRF"][7] == "**0.9500 ± 0.0000**"
+    assert rows["full"][10] == "0.1500 ± 0.0000 (tied)" and rows["GauGroup"][10] == "0.2000 ± 0.0000 (tied)"
+    assert rows["Δ full − GauGroup"][4] == f"+3.00 [{iv.low:.2f}, {iv.high:.2f}] better"
+    assert rows["Δ full − GauGroup"][10].endswith(" tied") and rows["Δ full − GauGroup"][-1] == ""  # unseen share: not compared
+    assert "FID substitute" in md and "no Inception weights" in md and "95% bootstrap interval" in md and "expanded for small samples" in md
+    assert "Run s3 (seed 0) is left out of every average: gaug/none, full/geometric have metrics there, spin/none not" in md
+    assert "Averaged over 4 run(s): 2 scene(s) (s1, s2) × seed(s) 0, 1." in md
+    assert "Scene s4 (seed 0) of full/geometric has no metrics (no object-free captures)" in md
     tex = (out / "table1_average.tex").read_text()
     assert r"\toprule" in tex and r"\bottomrule" in tex and r"PSNR $\uparrow$" in tex and r"LPIPS $\downarrow$" in tex
     full_line = next(line for line in tex.splitlines() if line.startswith("full &"))
-    assert r"\textbf{26.00}" in full_line and r"\underline{0.8500}" in full_line and r"\textbf{0.1500}" in full_line
-    spin_line = next(line for line in tex.splitlines() if line.startswith("SPIn-NeRF &"))
-    assert r"\textit{20.50}" in spin_line and r"\textbf{0.9500}" in spin_line and r"\textit{0.4500}" in spin_line
+    assert r"\textbf{26.15 $\pm$ 0.21}" in full_line and r"0.1500 $\pm$ 0.0000 (tied)" in full_line
+    assert next(line for line in tex.splitlines() if line.startswith(r"$\Delta$ full $-$ GauGroup &"))
 
-    # per scene: every run, s4 with its reason; marks among methods and baselines of one scene
+    prov = json.loads((out / "provenance.json").read_text())
+    assert prov["config"]["content"] == cfg.read_text() and prov["seeds"] == [0, 1] and prov["seeds_source"] == "record seed labels"
+    assert prov["bootstrap"]["resamples"] == 10000 and prov["bootstrap"]["seed"] == 0 and prov["bootstrap"]["confidence"] == 0.95
+    assert prov["weights"] == [{"name": "lpips_vgg", "file": "vgg16.ckpt", "sha256": SHA, "records": 32}]
+    assert [r["path"] for r in prov["records"]] == records
+    assert {"torch", "numpy", "snakemake", "pycolmap", "onnxruntime"} <= set(prov["packages"])
+    assert prov["machine"]["cpu_count"] >= 1 and prov["git_commit"]
+    assert "table1_average.tex" in prov["outputs"]
+
+    # the same records give the same numbers in any order (the bootstrap's generator is seeded, the pairs sorted)
+    code, _, err = cli(capsys, "table", "paper", *reversed(records), "--out-dir", str(tmp_path / "again"))
+    assert code == 0, err
+    again = (tmp_path / "again" / "table1_average.csv").read_text().splitlines()
+    assert sorted(again) == sorted((out / "table1_average.csv").read_text().splitlines())
+    code, _, err = cli(capsys, "table", "paper", *records, "--out-dir", str(tmp_path / "other"), "--bootstrap-seed", "3", "--confidence", "0.5")
+    assert code == 0, err
+    other = pd.read_csv(tmp_path / "other" / "table1_average.csv").set_index(["row_type", "vs"]).loc[("difference", "gaug")]
+    assert other["lpips_ci_high"] - other["lpips_ci_low"] < diffs.loc["gaug", "lpips_ci_high"] - diffs.loc["gaug", "lpips_ci_low"]
+
+
+def test_per_scene_ablations_and_runtime(tmp_path, capsys, records):
+    code, err = _paper(capsys, tmp_path, records)
+    assert code == 0, err
+    out = tmp_path / "tables"
+    # per scene: every run, every seed, s4 with its reason; no marks
     ps = pd.read_csv(out / "per_scene.csv", keep_default_na=False)
-    assert len(ps) == 15
+    assert len(ps) == 33 and set(ps["seed"]) == {0, 1}
     s4 = ps[ps["scene"] == "s4"].iloc[0]
     assert s4["note"] == "no object-free captures" and s4["psnr"] == ""
-    ps_tex = (out / "per_scene.tex").read_text()
-    s3_gaug = next(line for line in ps_tex.splitlines() if line.startswith("s3 & GauGroup"))
-    assert r"\underline{23.00}" in s3_gaug  # s3: full 26 > gaug 23 (spin absent: two rows, two marks)
-    s3_ablation = next(line for line in ps_tex.splitlines() if line.startswith("s3 & wo") or line.startswith("s3 & 2D"))
-    assert r"\textbf" not in s3_ablation and r"\underline" not in s3_ablation  # ablations unmarked
+    s2_full = ps[(ps["scene"] == "s2") & (ps["method"] == "full")]
+    assert list(s2_full["seed"]) == [0, 1] and [float(x) for x in s2_full["psnr"]] == pytest.approx([27.0, 27.3])
+    assert list(ps[ps["scene"] == "s1"]["method"])[:6] == ["spin", "spin", "gaug", "gaug", "full", "full"]
     ps_md = (out / "per_scene.md").read_text()
-    assert "no object-free captures" in ps_md
-    assert "**0.01**" not in ps_md and "**5.00**" not in ps_md  # KID and AMCR equal in every run: nothing to mark
+    assert "no object-free captures" in ps_md and "**" not in ps_md.split("Notes:")[0]
+    assert r"	extbf" not in (out / "per_scene.tex").read_text()
 
-    # Tab. 3: a) and b) by their paper letters (a from the label, b from the method id), then the full method
-    t3 = pd.read_csv(out / "table3_ablation.csv")
-    assert list(t3["row"]) == ["a) 2D tracker association", "b) w/o depth-guided initialisation", "Ours (full)"]
-    assert list(t3["psnr"]) == pytest.approx([(23 + 24 + 1) / 3, (24 + 25 + 1) / 3, 26.0])  # all three have s1-s3
-    assert list(t3["n_scenes"]) == [3, 3, 3]
+    # Tab. 3: b) has no s3, so it is a block of its own; a) and e) share the full method's runs
+    t3 = _read(out / "table3_ablation.csv")
+    assert list(t3["row"]) == ["Ours (full)", "a) 2D tracker association", "e) w/o hybrid supervision", "Δ a) − Ours", "Δ e) − Ours",
+                               "Ours (full)", "b) w/o depth-guided initialisation", "Δ b) − Ours"]
+    assert list(t3["block"]) == [1] * 5 + [2] * 3 and list(t3["n_runs"]) == [6] * 5 + [4] * 3
+    assert list(t3["psnr"])[:3] == pytest.approx([26.15, (23 + 24 + 1) / 3 + 0.15, 26.15]) and t3["psnr"][5] == pytest.approx(26.15)
+    da, de, db = (t3[t3["row"] == f"Δ {x}) − Ours"].iloc[0] for x in "aeb")
+    assert da["psnr_mark"] == "worse" and da["lpips_mark"] == "worse" and db["psnr_mark"] == "worse" and db["psnr"] == pytest.approx(-1.5)
+    assert de["psnr"] == pytest.approx(0.0) and de["psnr_mark"] == "tied" and de["ssim_ci_low"] == 0 == de["ssim_ci_high"]
     t3_md = (out / "table3_ablation.md").read_text()
-    assert "**26.00**" in t3_md and "<ins>16.67</ins>" in t3_md and "_16.00_" in t3_md
+    assert "3 scene(s) (s1, s2, s3) × seed(s) 0, 1" in t3_md and "**26.15 ± 0.21**" in t3_md
+    assert "e) w/o hybrid supervision (geometric; 3 scene(s) (s1, s2, s3) × seed(s) 0, 1): no measurable effect on 11 compared metric(s)" in t3_md
+    assert "a) 2D tracker association (geometric; 3 scene(s) (s1, s2, s3) × seed(s) 0, 1): worse on PSNR, masked PSNR" in t3_md
+    tex3 = (out / "table3_ablation.tex").read_text().splitlines()
+    second = next(i for i, line in enumerate(tex3) if line.startswith("2 & Ours"))
+    assert tex3[second - 1] == r"\midrule" and not any(line == r"\midrule" for line in tex3[second - 5:second - 1])  # a rule between blocks
 
-    # Tab. 2: minutes per stage over the scenes both have (s1, s2); total without evaluation
+    # Tab. 2: minutes per stage over the runs both have (s1, s2 at seeds 0, 1); total without evaluation; no marks
     t2 = pd.read_csv(out / "table2_runtime.csv").set_index("method")
-    assert list(t2.index) == ["gaug", "full"] and (t2["n_scenes"] == 2).all()
+    assert list(t2.index) == ["gaug", "full"] and (t2["n_runs"] == 4).all()
     assert t2.loc["full", "train_min"] == pytest.approx(2.5) and t2.loc["full", "inpaint_min"] == pytest.approx(1.5)
     assert t2.loc["full", "evaluate_min"] == pytest.approx(0.5) and t2.loc["full", "total_min"] == pytest.approx(4.0)
     assert t2.loc["gaug", "train_min"] == pytest.approx(6.0) and math.isnan(t2.loc["gaug", "inpaint_min"])
     assert t2.loc["gaug", "total_min"] == pytest.approx(6.0) and t2.loc["full", "storage_mb"] == pytest.approx(2.0)
     assert t2.loc["full", "peak_rss_mb"] == pytest.approx(512.5)
     t2_md = (out / "table2_runtime.md").read_text()
-    assert "—" in t2_md and "total = train + inpaint" in t2_md and "spin/none has no stage benchmarks for scene(s) s1, s2; left out." in t2_md
-    assert "**4.00**" in t2_md and "<ins>6.00</ins>" in t2_md  # lower is better
+    assert "—" in t2_md and "total = train + inpaint" in t2_md and "spin/none has no stage benchmarks for s1 (seed 0)" in t2_md
+    assert "**" not in t2_md.split("Notes:")[0]
     det = pd.read_csv(out / "table2_runtime_detail.csv", keep_default_na=False)
     full = det[det["method"] == "full"].set_index("scene")
-    assert list(full.index) == ["s1", "s2", "s3", "average"]
+    assert list(full.index) == ["s1", "s2", "s3", "average"] and list(full["n_runs"]) == [2, 2, 2, 4]
     assert full.loc["s3", "note"] == "not in the average" and full.loc["average", "train_min"] == pytest.approx(2.5)
     assert full.loc["s1", "total_min"] == pytest.approx(3.0)
-
-    prov = json.loads((out / "provenance.json").read_text())
-    assert prov["config"]["content"] == cfg.read_text() and prov["seeds"] == [7] and prov["seeds_source"] == "config seed"
-    assert prov["weights"] == [{"name": "lpips_vgg", "file": "vgg16.ckpt", "sha256": SHA, "records": 14}]
-    assert [r["path"] for r in prov["records"]] == records
-    assert {"torch", "numpy", "snakemake", "pycolmap", "onnxruntime"} <= set(prov["packages"])
-    assert prov["machine"]["cpu_count"] >= 1 and prov["git_commit"]
-    assert "table1_average.tex" in prov["outputs"]
 
 
 def test_fid_column_when_every_run_has_it_and_seeds(tmp_path, capsys):
@@ -227,9 +293,13 @@ def test_fid_column_when_every_run_has_it_and_seeds(tmp_path, capsys):
         paths.append(record(capsys, tmp_path / m / "r.json", {"scene": "s1", "method": m, "segmenter": "g", "kind": "baseline" if m == "base" else "method"}, "--eval", ev))
     code, err = _paper(capsys, tmp_path, paths, "--seeds", "0", "1")
     assert code == 0, err
-    t1 = pd.read_csv(tmp_path / "tables" / "table1_average.csv").set_index("method")
-    assert t1.loc["full", "fid"] == 30.0 and "fd_vgg16" not in t1.columns
-    assert r"\textbf{30.00}" in (tmp_path / "tables" / "table1_average.tex").read_text()
+    t1 = _read(tmp_path / "tables" / "table1_average.csv").set_index(["row_type", "method"])
+    assert t1.loc[("mean", "full"), "fid"] == 30.0 and "fd_vgg16" not in t1.columns
+    # one run: no interval, so no best, however large the difference
+    assert t1.loc[("difference", "full"), "fid"] == -10.0 and math.isnan(t1.loc[("difference", "full"), "fid_ci_low"])
+    assert t1.loc[("mean", "full"), "fid_mark"] == "tied" == t1.loc[("mean", "base"), "fid_mark"]
+    tex = (tmp_path / "tables" / "table1_average.tex").read_text()
+    assert r"\textbf" not in tex.split(r"\caption")[0] and "30.00 (tied)" in tex and "-10.00 tied" in tex
     md3 = (tmp_path / "tables" / "table3_ablation.md").read_text()
     assert "No ablation records" in md3
     prov = json.loads((tmp_path / "tables" / "provenance.json").read_text())
@@ -265,6 +335,15 @@ def _good(tmp_path, capsys, name="a", scene="s1"):
     return record(capsys, tmp_path / name / "r.json", {"scene": scene, "method": "full", "segmenter": "g"}, "--eval", ev)
 
 
+def _seeded_twice(tmp_path, capsys):
+    """Two records of scene s1 at seed 1 (the first one, ``_good``, has no seed: not a duplicate of either)."""
+    ev = eval_json(tmp_path / "c" / "eval.json", 25, 0.8, 0.1)
+    first = record(capsys, tmp_path / "c" / "r.json", {"scene": "s1", "method": "full", "segmenter": "g", "seed": 1}, "--eval", ev)
+    p = Path(first).read_text()
+    (tmp_path / "d.json").write_text(p)
+    return first + "\0" + str(tmp_path / "d.json")
+
+
 def _nan_record(tmp_path, capsys):
     p = Path(_good(tmp_path, capsys, "b", "s2"))
     p.write_text(p.read_text().replace('"psnr": 25.0', '"psnr": NaN'))
@@ -279,6 +358,7 @@ def _bad_kind_record(tmp_path, capsys):
 
 PAPER_CASES = {
     "duplicate-run": (lambda t, c: _good(t, c, "b"), "appears twice"),
+    "duplicate-seed": (lambda t, c: _seeded_twice(t, c), "seed 1 appears twice"),
     "nan-in-record": (_nan_record, "non-finite value NaN"),
     "missing-record": (lambda t, c: str(t / "nope.json"), "not found"),
     "invalid-json": (lambda t, c: (t / "x.json").write_text("{oops") and str(t / "x.json"), "not valid JSON"),
@@ -294,7 +374,8 @@ def test_paper_bad_input(tmp_path, capsys, case):
     bad = make(tmp_path, capsys)
     (tmp_path / "tables").mkdir()
     (tmp_path / "tables" / "table1_average.md").write_text("previous")
-    code, err = _paper(capsys, tmp_path, [first, bad])
+    code, err = _paper(capsys, tmp_path, [first, *bad.split("\0")])
+    bad = bad.split("\0")[-1]
     lines = err.strip().splitlines()
     assert code == 2 and len(lines) == 1 and lines[0].startswith("inpaint360gs table: error: "), err
     assert words in lines[0] and Path(bad).name in lines[0]
@@ -317,6 +398,7 @@ RECORD_CASES = {
     "model-not-ply": (lambda t: ["--eval", eval_json(t / "e.json", 25, 0.8, 0.1), "--model", (t / "m.ply").write_text("hello") and str(t / "m.ply")], "not a PLY"),
     "label-no-scene": (lambda t: ["--eval", eval_json(t / "e.json", 25, 0.8, 0.1), "--label", "scene"], "KEY=VALUE"),
     "label-bad-kind": (lambda t: ["--eval", eval_json(t / "e.json", 25, 0.8, 0.1), "--label", "kind=other"], "kind must be one of"),
+    "label-bad-seed": (lambda t: ["--eval", eval_json(t / "e.json", 25, 0.8, 0.1), "--label", "seed=one"], "seed must be a non-negative integer"),
     "eval-and-skip": (lambda t: ["--eval", eval_json(t / "e.json", 25, 0.8, 0.1), "--skip-reason", "x"], "--skip-reason"),
 }
 
@@ -345,3 +427,26 @@ def test_reconstruction_table_still_works(tmp_path, capsys):
     code, _, err = cli(capsys, "table", "reconstruction", str(tmp_path / "a.json"), str(tmp_path / "b.json"), "--csv", str(tmp_path / "t.csv"))
     assert code == 0, err
     assert pd.read_csv(tmp_path / "t.csv").set_index("scene").loc["average", "PSNR (dB)"] == 31.0
+
+
+def test_records_and_evaluations_from_before_the_unseen_share_read_their_amcr_as_it(tmp_path, capsys):
+    """A format-1 record, or an evaluation without unseen_share: their 'amcr' was the unseen masks'
+    coverage. It is read as unseen_share, and AMCR (removal masks) is null with that reason."""
+    ev = json.loads(Path(eval_json(tmp_path / "e.json", 25, 0.8, 0.1)).read_text())
+    ev["scene_metrics"] = {"fid": None, "fd_vgg16": 10.0, "kid_vgg16": 0.01, "amcr": 4.0}
+    (tmp_path / "old_eval.json").write_text(json.dumps(ev))
+    new = record(capsys, tmp_path / "a.json", {"scene": "s1", "method": "full", "segmenter": "g"}, "--eval", str(tmp_path / "old_eval.json"))
+    rec = json.loads(Path(new).read_text())
+    assert rec["format"] == "inpaint360gs-table-record/2" and rec["metrics"]["unseen_share"] == 4.0 and rec["metrics"]["amcr"] is None
+    assert "from before AMCR was computed on the removal masks" in rec["null_reasons"]["amcr"]
+    old = dict(rec, format="inpaint360gs-table-record/1")
+    old["metrics"] = {k: v for k, v in rec["metrics"].items() if k != "unseen_share"} | {"amcr": 3.0, "psnr": 20.0}
+    old["labels"] = dict(rec["labels"], method="base", kind="baseline")
+    (tmp_path / "b.json").write_text(json.dumps(old))
+    code, err = _paper(capsys, tmp_path, [new, str(tmp_path / "b.json")])
+    assert code == 0, err
+    ps = _read(tmp_path / "tables" / "per_scene.csv").set_index("method")
+    assert ps.loc["base", "unseen_share"] == 3.0 and math.isnan(ps.loc["base", "amcr"]) and ps.loc["full", "unseen_share"] == 4.0
+    md = (tmp_path / "tables" / "per_scene.md").read_text()
+    assert "AMCR (%) is null in 1 run(s) (not recorded: this record is from before" in md
+    assert "AMCR (%) is null in 1 run(s) (not recorded: this evaluation is from before" in md

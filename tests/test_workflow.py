@@ -13,31 +13,40 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _dry_run(tmp_path, *config: str) -> subprocess.CompletedProcess:
-    cmd = [sys.executable, "-m", "snakemake", "-n", "--cores", "1", "--directory", str(ROOT), "--snakefile", str(ROOT / "Snakefile"),
+    cmd = [sys.executable, "-m", "snakemake", "-n", "-p", "--cores", "1", "--directory", str(ROOT), "--snakefile", str(ROOT / "Snakefile"),
            "--config", f"data_dir={tmp_path}/data", f"out_dir={tmp_path}/out", f"results_dir={tmp_path}/results", *config]
     return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=120)
 
 
+def _count(out: str, rule: str) -> int:
+    return next((int(line.split()[1]) for line in out.splitlines() if line.split()[:1] == [rule] and len(line.split()) == 2), 0)
+
+
 def test_dry_run_with_typed_command_line_values(tmp_path):
-    p = _dry_run(tmp_path, "reduced=true", "poses=colmap", "scenes=[cone,toys]", "train_scenes=[cone]",
+    p = _dry_run(tmp_path, "reduced=true", "poses=colmap", "scenes=[cone,toys]", "train_scenes=[cone]", "seeds=[3,5]", "ablation_scenes=[all]",
                  "train={iterations: 1000, schedule_scale: auto, max_gaussians: 0, backend: auto, extra_args: ''}")
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
-    # two generated scenes and their COLMAP rebuilds, 3DGS on each, the reconstruction table; per scene
-    # one segmentation, two associations (KOM, and the tracker of ablation a) each with its own
-    # distillation and removal, seven inpaintings (every method but removal only), one render of the
-    # removal, eight evaluations and records; one set of paper tables
-    counts = [("synth_scene", 2), ("colmap_scene", 2), ("train_3dgs", 2), ("table_3dgs", 1), ("segment", 2), ("associate", 4),
-              ("distill", 4), ("remove", 4), ("render_removed", 2), ("inpaint", 14), ("evaluate", 16), ("record", 16), ("paper_tables", 1)]
+    # two generated scenes and their COLMAP rebuilds, 3DGS on each (once, for both seeds), the
+    # reconstruction table; per scene and seed one segmentation, two associations (KOM, and the
+    # tracker of ablation a) each with its own distillation and removal, seven inpaintings (every
+    # method but removal only), one render of the removal, eight evaluations and records; one set of tables
+    counts = [("synth_scene", 2), ("colmap_scene", 2), ("train_3dgs", 2), ("table_3dgs", 1), ("segment", 4), ("associate", 8),
+              ("distill", 8), ("remove", 8), ("render_removed", 4), ("inpaint", 28), ("evaluate", 32), ("record", 32), ("paper_tables", 1)]
     for rule, n in counts:
-        assert any(line.split()[:2] == [rule, str(n)] for line in out.splitlines()), (rule, out[-3000:])
+        assert _count(out, rule) == n, (rule, out[-3000:])
+    # the seed reaches every seeded stage after 3DGS, and names the run's folder; 3DGS keeps `seed`
+    for stage in ("segment", "distill", "inpaint"):
+        assert any(f"inpaint360gs {stage} " in line and "--seed 5" in line and "/seed5/" in line for line in out.splitlines()), stage
+    assert all("--seed 0" in line for line in out.splitlines() if "inpaint360gs train " in line)
+    assert "--label seed=5" in out and "--seeds 3 5" in out
 
 
 def test_scene_folders_and_method_subsets(tmp_path):
     folder = tmp_path / "captures" / "myscene"
     folder.mkdir(parents=True)
     (folder / "scene.json").write_text("{}")
-    p = _dry_run(tmp_path, f"scenes=[cone,{folder}]", "train_scenes=[]", "methods=[full,removal_only]", "segmenters=[geometric,oracle]")
+    p = _dry_run(tmp_path, f"scenes=[cone,{folder}]", "train_scenes=[]", "methods=[full,removal_only]", "segmenters=[geometric,oracle]", "seeds=[0]")
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
     # the folder is used as it is (no synth job for it); oracle runs on the synthetic scene only
@@ -49,7 +58,8 @@ def test_scene_folders_and_method_subsets(tmp_path):
 @pytest.mark.parametrize(
     "bad,named",
     [("reduced=maybe", "reduced"), ("poses=guess", "poses"), ("train_scenes=[nosuchscene]", "nosuchscene"), ("methods=[magic]", "magic"),
-     ("scenes=[./no/such/folder]", "no/such/folder"), ("segmenters=[]", "segmenters"), ("suite=train", "suite")],
+     ("scenes=[./no/such/folder]", "no/such/folder"), ("segmenters=[]", "segmenters"), ("suite=train", "suite"), ("seeds=[]", "seeds"),
+     ("seeds=[1,1]", "repeat"), ("seeds=[-1]", "seeds"), ("ablation_scenes={abl_z: [cone]}", "abl_z")],
 )  # fmt: skip
 def test_bad_config_values_are_refused(tmp_path, bad, named):
     p = _dry_run(tmp_path, bad)
@@ -109,7 +119,7 @@ def test_killed_workflow_resumes_training_to_the_uninterrupted_bytes(tmp_path):
 
 
 def test_ablations_run_on_their_scene_subset(tmp_path):
-    p = _dry_run(tmp_path, "scenes=[cone,bag]", "train_scenes=[]", "methods=[full,abl_d,abl_a]", "ablation_scenes=[cone]")
+    p = _dry_run(tmp_path, "scenes=[cone,bag]", "train_scenes=[]", "methods=[full,abl_d,abl_a]", "ablation_scenes=[cone]", "seeds=[0]")
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
     # full on both scenes, abl_d and abl_a on cone only (abl_a: its own association on cone)
@@ -125,15 +135,15 @@ def test_suites_and_the_realistic_familys_own_poses(tmp_path):
     def count(out, rule):
         return next((int(line.split()[1]) for line in out.splitlines() if line.split()[:1] == [rule]), 0)
 
-    p = _dry_run(tmp_path, "methods=[full]", "train_scenes=[]")
+    p = _dry_run(tmp_path, "scenes=[all]", "methods=[full]", "train_scenes=[]", "seeds=[0]")
     assert p.returncode == 0, p.stderr[-2000:]
     assert count(p.stdout + p.stderr, "synth_scene") == 10
     dev = suite_scenes("dev")
-    p = _dry_run(tmp_path, "suite=dev", "poses=colmap", "methods=[full]", "train_scenes=[]")
+    p = _dry_run(tmp_path, "suite=dev", "poses=colmap", "methods=[full]", "train_scenes=[]", "seeds=[0]")
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
     assert count(out, "synth_scene") == len(dev) and count(out, "colmap_scene") == 10 and count(out, "inpaint") == len(dev)
-    p = _dry_run(tmp_path, "suite=test", "methods=[full]", "train_scenes=[]")
+    p = _dry_run(tmp_path, "suite=test", "methods=[full]", "train_scenes=[]", "seeds=[0]")
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
     assert count(out, "synth_scene") == len(suite_scenes("test")) and count(out, "colmap_scene") == 0
@@ -154,3 +164,32 @@ def test_the_method_list_is_the_one_of_common_smk():
     schema = yaml.safe_load((ROOT / "workflow" / "config" / "config.schema.yaml").read_text())
     assert schema["properties"]["methods"]["items"]["enum"] == defined
     assert yaml.safe_load((ROOT / "workflow" / "config" / "config.yaml").read_text())["methods"] == defined
+
+
+def test_default_benchmark_is_the_test_suite_at_three_seeds_with_ablations_where_they_matter(tmp_path):
+    """`make benchmark`'s plan: every test scene, 3DGS once per scene, every later stage at seeds
+    0, 1, 2, the method and both baselines everywhere, each ablation on its two property scenes (the
+    same layouts in the dev suite), the 3DGS table over the benchmark's own scenes."""
+    from dataset_tools.synth import suite_scenes
+
+    test = suite_scenes("test")
+    p = _dry_run(tmp_path)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    n, runs = len(test), 3 * len(test)
+    counts = {"synth_scene": n, "colmap_scene": 0, "train_3dgs": n, "table_3dgs": 1, "segment": runs, "associate": runs + 6, "distill": runs + 6,
+              "remove": runs + 6, "render_removed": runs, "inpaint": 2 * runs + 5 * 6, "evaluate": 3 * runs + 30, "record": 3 * runs + 30,
+              "paper_tables": 1}
+    assert {rule: _count(out, rule) for rule in counts} == counts
+    where = {m: {line.split("/methods/")[0].split("/out/")[1].split("/")[0] for line in out.splitlines()
+                 if "inpaint360gs inpaint " in line and f"/methods/{m} " in line} for m in ("abl_a", "abl_b", "abl_c", "abl_d", "abl_e", "full")}
+    assert where == {"abl_a": {"teapot-test1", "teapot-test2"}, "abl_b": {"teapot-test1", "teapot-test2"}, "abl_c": {"dozer-test1-sparse", "duck-test1-sparse"},
+                     "abl_d": {"dozer-test1", "dozer-test2"}, "abl_e": {"duck-test1", "duck-test2"}, "full": set(test)}
+    assert not any("dev" in line for line in out.splitlines() if "inpaint360gs" in line)
+    # the same plan on the dev suite puts the ablations on the dev scenes of the same layouts
+    p = _dry_run(tmp_path, "scenes=[dev]", "methods=[full,abl_a,abl_c]", "seeds=[0]", "train_scenes=[]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    lines = [line for line in (p.stdout + p.stderr).splitlines() if "inpaint360gs inpaint " in line]
+    assert {line.split("/methods/")[1].split()[0] for line in lines if "/teapot-dev2/" in line} == {"full", "abl_a"}
+    assert {line.split("/methods/")[1].split()[0] for line in lines if "/duck-dev1-sparse/" in line} == {"full", "abl_c"}
+    assert sum("/methods/abl_" in line for line in lines) == 4

@@ -119,7 +119,7 @@ def test_reduced_workflow_runs_as_slurm_jobs(slurm_cluster, tmp_path):
            "--set-resources", "train_3dgs:mem_mb=4000", "distill:mem_mb=4000", "inpaint:mem_mb=4000",
            "--slurm-status-command", "squeue", "--slurm-init-seconds-before-status-checks", "1", "--seconds-between-status-checks", "2",
            "--slurm-logdir", str(tmp_path / "slurm_logs"), "--slurm-keep-successful-logs",
-           "all", f"{tmp_path}/out/cone/geometric/kom/distill/distill.json"]  # fmt: skip
+           "all", f"{tmp_path}/out/cone/seed0/geometric/kom/distill/distill.json"]  # fmt: skip
     p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=slurm_cluster, timeout=1200)
     assert p.returncode == 0, p.stderr[-3000:]
     submitted = p.stdout + p.stderr
@@ -131,4 +131,4 @@ def test_reduced_workflow_runs_as_slurm_jobs(slurm_cluster, tmp_path):
     assert len(list((tmp_path / "slurm_logs").rglob("*.log"))) == len(rules)
     assert json.loads((tmp_path / "out" / "cone" / "3dgs" / "metrics.json").read_text())["psnr"] > 15
     assert (tmp_path / "results" / "3dgs_reconstruction.csv").is_file()
-    assert (tmp_path / "out" / "cone" / "geometric" / "kom" / "distill" / "distill.json").is_file()
+    assert (tmp_path / "out" / "cone" / "seed0" / "geometric" / "kom" / "distill" / "distill.json").is_file()

@@ -236,5 +236,5 @@ def rebuild_with_colmap(truth: Path, out: Path, seed: int, progress: bool = Fals
 
     sfm = SfMConfig(num_threads=1, seed=seed, abs_pose_min_num_inliers=SYNTH_ABS_POSE_MIN_INLIERS,
                     abs_pose_min_inlier_ratio=SYNTH_ABS_POSE_MIN_INLIER_RATIO)
-    cfg = BuildConfig(sfm=sfm, require_all_registered=True, progress=progress)
+    cfg = BuildConfig(sfm=sfm, min_registered=1.0, progress=progress)
     build_synthetic_with_colmap(truth, out, cfg)

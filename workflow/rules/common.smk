@@ -1,5 +1,6 @@
-# Shared helpers: scenes, methods and paths derived from the config.
+# Shared helpers: scenes, seeds, methods and paths derived from the config.
 
+import fnmatch
 import os
 import shlex
 
@@ -24,11 +25,15 @@ def _is_folder(entry):
 
 
 def _expand(entries):
-    """`[all]`: the ten scenes of the committed tables (README, "The synthetic benchmark"); other
-    catalogue scenes are named, or chosen by suite (`suite:`)."""
-    from dataset_tools.synth.catalogue import BENCHMARK_SCENES
+    """`all`: the ten classic scenes (README, "The synthetic benchmark"); `dev` / `test`: every scene
+    of that suite (docs/architecture.md, "Development and test scenes"); other entries are catalogue
+    names or scene folders. Keywords may be mixed with names (`[test, cone]`); repeats are dropped."""
+    from dataset_tools.synth.catalogue import BENCHMARK_SCENES, suite_scenes
 
-    return list(BENCHMARK_SCENES) if entries == ["all"] else list(entries)
+    out = []
+    for entry in entries:
+        out += list(BENCHMARK_SCENES) if entry == "all" else suite_scenes(entry) if entry in ("dev", "test") else [entry]
+    return list(dict.fromkeys(out))
 
 
 def _synthetic_poses(name):
@@ -55,9 +60,10 @@ for _entry in _entries:
     SCENE_DIRS[_name] = os.path.normpath(_entry) if _is_folder(_entry) else None
 SCENES = list(SCENE_DIRS)
 SYNTHETIC = [s for s, d in SCENE_DIRS.items() if d is None]
-TRAIN_SCENES = _expand(config["train_scenes"])
+# `scenes`: the benchmark's own scenes (their 3DGS is trained anyway: the table costs nothing more)
+TRAIN_SCENES = list(dict.fromkeys(s for e in config["train_scenes"] for s in (SCENES if e == "scenes" else _expand([e]))))
 
-unknown = sorted(set(SYNTHETIC + TRAIN_SCENES) - set(_synthetic_names()))
+unknown = sorted(set(SYNTHETIC + [s for s in TRAIN_SCENES if s not in SCENE_DIRS]) - set(_synthetic_names()))
 if unknown:
     raise WorkflowError(f"config: unknown scene name(s) {unknown} (synthetic: {_synthetic_names()}; a scene folder is given by its path, e.g. ./my_scene)")
 missing = sorted(d for d in SCENE_DIRS.values() if d is not None and not os.path.isfile(f"{d}/scene.json"))
@@ -93,8 +99,31 @@ if unknown:
     raise WorkflowError(f"config: unknown method(s) {unknown}; known: {sorted(METHODS)}")
 SEGMENTERS = list(config["segmenters"])
 
+# Seeds of every stage after 3DGS (segment, distill and inpaint take --seed; associate and remove are
+# deterministic functions of what they read): one run per scene and seed, 3DGS once per scene at `seed`.
+SEEDS = list(config["seeds"])
+if len(set(SEEDS)) != len(SEEDS):
+    raise WorkflowError(f"config: seeds {SEEDS} repeat a seed")
+
+
+def _ablation_scenes():
+    """Ablation -> the scenes it runs on: `ablation_scenes` is one list for every ablation (and the
+    L sweep) or a mapping per ablation; entries are scene names, shell-style patterns over the
+    benchmark's scenes (`teapot-*1`) or [all]; an ablation left out of a mapping runs nowhere."""
+    spec = config["ablation_scenes"]
+    known = [m for m, d in METHODS.items() if d["kind"] == "ablation"] + ["sweep"]
+    lists = dict.fromkeys(known, spec) if isinstance(spec, list) else spec
+    unknown = sorted(set(lists) - set(known))
+    if unknown:
+        raise WorkflowError(f"config: ablation_scenes names {unknown}, not ablations (abl_a .. abl_e, or sweep)")
+    return {m: [s for s in SCENES if any(e == "all" or fnmatch.fnmatchcase(s, e) for e in entries)] for m, entries in lists.items()}
+
+
+ABLATION_SCENES = _ablation_scenes()
+
 wildcard_constraints:
     scene="|".join(sorted(set(SCENES + TRAIN_SCENES))),
+    seed=r"\d+",
     segmenter="geometric|oracle|sam",
     association="kom|tracker",
     method="|".join(METHODS),
@@ -134,52 +163,66 @@ for _name in sorted(set(SCENES + TRAIN_SCENES)):
 
 
 def runs():
-    """(scene, segmenter, method) of every run; the oracle segmenter reads the generator's ground
-    truth, so it runs on synthetic scenes only."""
+    """(scene, seed, segmenter, method) of every run; the oracle segmenter reads the generator's
+    ground truth, so it runs on synthetic scenes only; each ablation runs on its `ablation_scenes`,
+    the L sweep on those of `sweep` (or, without that key, every scene some ablation runs on)."""
     methods = list(config["methods"]) + (SWEEP if "full" in config["methods"] else [])
-    abl = SCENES if config["ablation_scenes"] == ["all"] else config["ablation_scenes"]
+
+    def where(m):
+        kind = METHODS[m]["kind"]
+        if kind == "ablation":
+            return ABLATION_SCENES.get(m, [])
+        if kind == "sweep":
+            return ABLATION_SCENES.get("sweep", sorted({s for k, v in ABLATION_SCENES.items() for s in v}))
+        return SCENES
+
     return [
-        (s, g, m)
+        (s, k, g, m)
         for s in SCENES
+        for k in SEEDS
         for g in SEGMENTERS
         for m in methods
-        if (g != "oracle" or s in SYNTHETIC) and (METHODS[m]["kind"] not in ("ablation", "sweep") or s in abl)
+        if (g != "oracle" or s in SYNTHETIC) and s in where(m)
     ]
 
 
+# Outputs of a run: OUT/<scene>/seed<k>/<segmenter>/... (3DGS, shared by the seeds: OUT/<scene>/3dgs)
+RUN = "{scene}/seed{seed}/{segmenter}"
+
+
 def run_dir(wc):
-    return f"{OUT}/{wc.scene}/{wc.segmenter}"
+    return f"{OUT}/{wc.scene}/seed{wc.seed}/{wc.segmenter}"
 
 
 def removal_dir(wc, association):
-    return f"{OUT}/{wc.scene}/{wc.segmenter}/{association}/removed"
+    return f"{run_dir(wc)}/{association}/removed"
 
 
 def method_renders(wc):
     """The test_ renders a method is evaluated on, and the stage output that holds them."""
     m = METHODS[wc.method]
     if m["inpaint"] is None:
-        return f"{OUT}/{wc.scene}/{wc.segmenter}/{m['association']}/removed_renders/render.json", "color"
-    return f"{OUT}/{wc.scene}/{wc.segmenter}/methods/{wc.method}/inpaint.json", "renders/test"
+        return f"{run_dir(wc)}/{m['association']}/removed_renders/render.json", "color"
+    return f"{run_dir(wc)}/methods/{wc.method}/inpaint.json", "renders/test"
 
 
 def stage_benchmarks(wc):
     """Snakemake benchmark files of every stage a method's result depends on (runtime table)."""
     m = METHODS[wc.method]
     a = m["association"]
-    b = f"{OUT}/benchmarks/{wc.scene}"
+    b = f"{OUT}/benchmarks/{wc.scene}/seed{wc.seed}/{wc.segmenter}"
     stages = {
-        "train": f"{b}/train_3dgs.tsv",
-        "segment": f"{b}/{wc.segmenter}/segment.tsv",
-        "associate": f"{b}/{wc.segmenter}/{a}/associate.tsv",
-        "distill": f"{b}/{wc.segmenter}/{a}/distill.tsv",
-        "remove": f"{b}/{wc.segmenter}/{a}/remove.tsv",
+        "train": f"{OUT}/benchmarks/{wc.scene}/train_3dgs.tsv",
+        "segment": f"{b}/segment.tsv",
+        "associate": f"{b}/{a}/associate.tsv",
+        "distill": f"{b}/{a}/distill.tsv",
+        "remove": f"{b}/{a}/remove.tsv",
     }
     if m["inpaint"] is None:
-        stages["render"] = f"{b}/{wc.segmenter}/{a}/render_removed.tsv"
+        stages["render"] = f"{b}/{a}/render_removed.tsv"
     else:
-        stages["inpaint"] = f"{b}/{wc.segmenter}/methods/{wc.method}/inpaint.tsv"
-    stages["evaluate"] = f"{b}/{wc.segmenter}/methods/{wc.method}/evaluate.tsv"
+        stages["inpaint"] = f"{b}/methods/{wc.method}/inpaint.tsv"
+    stages["evaluate"] = f"{b}/methods/{wc.method}/evaluate.tsv"
     return stages
 
 
@@ -187,8 +230,8 @@ def method_model(wc):
     """The PLY a method produces (its storage in the runtime table)."""
     m = METHODS[wc.method]
     if m["inpaint"] is None:
-        return f"{OUT}/{wc.scene}/{wc.segmenter}/{m['association']}/removed/removal.json"
-    return f"{OUT}/{wc.scene}/{wc.segmenter}/methods/{wc.method}/inpaint.json"
+        return f"{removal_dir(wc, m['association'])}/removal.json"
+    return f"{run_dir(wc)}/methods/{wc.method}/inpaint.json"
 
 
 def all_targets():

@@ -3,56 +3,63 @@
 
 
 rule evaluate:
-    """Every metric of a method's test_ renders (`inpaint360gs evaluate`); a scene without ground
-    truth gets null metrics with the reason."""
+    """Every metric of a method's test_ renders (`inpaint360gs evaluate`), AMCR on the method's own
+    removal masks at the test cameras (`--removal`, paper supp. Eq. 1), the fill's geometry against
+    the true surface (`--model`: its final model); a scene without ground truth gets null metrics
+    with the reason."""
     input:
         scene_json=lambda wc: f"{scene_dir(wc.scene)}/scene.json",
         stage=lambda wc: method_renders(wc)[0],
+        removal=lambda wc: f"{removal_dir(wc, METHODS[wc.method]['association'])}/removal.json",
     output:
-        f"{OUT}/{{scene}}/{{segmenter}}/eval/{{method}}.json",
+        f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/eval/{{method}}.json",
     params:
         scene_dir=lambda wc: scene_dir(wc.scene),
         renders=lambda wc: os.path.join(os.path.dirname(method_renders(wc)[0]), method_renders(wc)[1]),
+        removed=lambda wc: removal_dir(wc, METHODS[wc.method]["association"]),
+        model=lambda wc: os.path.join(os.path.dirname(method_model(wc)), "point_cloud.ply"),
+        backend=BACKEND,
         inception=f"--inception-weights {shlex.quote(config['inception_weights'])}" if config["inception_weights"] else "",
     threads: THREADS
     resources:
         mem_mb=6000,
     log:
-        f"{OUT}/logs/{{scene}}/{{segmenter}}/methods/{{method}}/evaluate.log",
+        f"{OUT}/logs/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/evaluate.log",
     benchmark:
-        f"{OUT}/benchmarks/{{scene}}/{{segmenter}}/methods/{{method}}/evaluate.tsv"
+        f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/evaluate.tsv"
     shell:
         "inpaint360gs evaluate {params.renders:q} {params.scene_dir:q} {output:q} {params.inception}"
-        " --threads {threads} > {log:q} 2>&1"
+        " --removal {params.removed:q} --model {params.model:q} --backend {params.backend} --threads {threads} > {log:q} 2>&1"
 
 
 rule record:
-    """One self-describing record per (scene, segmenter, method): labels, metrics, stage times, storage."""
+    """One self-describing record per (scene, seed, segmenter, method): labels, metrics, stage times, storage."""
     input:
-        evaluation=f"{OUT}/{{scene}}/{{segmenter}}/eval/{{method}}.json",
+        evaluation=f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/eval/{{method}}.json",
         benchmarks=lambda wc: list(stage_benchmarks(wc).values()),
         stage=method_model,
     output:
-        f"{OUT}/{{scene}}/{{segmenter}}/records/{{method}}.json",
+        f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/records/{{method}}.json",
     params:
         labels=lambda wc: " ".join(
             "--label " + shlex.quote(f"{k}={v}")
-            for k, v in dict(scene=wc.scene, segmenter=wc.segmenter, method=wc.method, kind=METHODS[wc.method]["kind"],
+            for k, v in dict(scene=wc.scene, seed=wc.seed, segmenter=wc.segmenter, method=wc.method, kind=METHODS[wc.method]["kind"],
                              name=METHODS[wc.method]["name"], **METHODS[wc.method].get("labels", {})).items()
         ),
         stages=lambda wc: " ".join(f"--stage {k}={v}" for k, v in stage_benchmarks(wc).items()),
         model=lambda wc: os.path.join(os.path.dirname(method_model(wc)), "point_cloud.ply"),
     log:
-        f"{OUT}/logs/{{scene}}/{{segmenter}}/methods/{{method}}/record.log",
+        f"{OUT}/logs/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/record.log",
     shell:
         "inpaint360gs table record {output:q} {params.labels} --eval {input.evaluation:q} {params.stages}"
         " --model {params.model:q} > {log:q} 2>&1"
 
 
 rule paper_tables:
-    """per_scene, table1_average, table3_ablation, table2_runtime (CSV, Markdown, LaTeX) + provenance.json."""
+    """per_scene, table1_average, table3_ablation, table2_runtime (CSV, Markdown, LaTeX) + provenance.json;
+    seed spreads and paired bootstrap intervals over the (scene, seed) runs (README, "Tables of the paper")."""
     input:
-        records=[f"{OUT}/{s}/{g}/records/{m}.json" for s, g, m in runs()],
+        records=[f"{OUT}/{s}/seed{k}/{g}/records/{m}.json" for s, k, g, m in runs()],
     output:
         # the configuration of the run that writes the tables (every --config override applied), for
         # provenance; written by this rule so that it can never be older than the tables
@@ -71,11 +78,11 @@ rule paper_tables:
         else [],
     params:
         out=RESULTS,
-        seed=config["seed"],
+        seeds=" ".join(str(k) for k in SEEDS),
         config_text=yaml.safe_dump(dict(config), sort_keys=False),
     log:
         f"{OUT}/logs/paper_tables.log",
     shell:
         "printf '%s' {params.config_text:q} > {output.config:q} &&"
         " inpaint360gs table paper {input.records:q} --out-dir {params.out:q} --config {output.config:q}"
-        " --seeds {params.seed} > {log:q} 2>&1"
+        " --seeds {params.seeds} > {log:q} 2>&1"

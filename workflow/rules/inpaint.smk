@@ -7,23 +7,23 @@ rule inpaint:
     """`inpaint360gs inpaint` with the method's switches (common.smk, METHODS)."""
     input:
         scene_json=lambda wc: f"{scene_dir(wc.scene)}/scene.json",
-        distill=lambda wc: f"{OUT}/{wc.scene}/{wc.segmenter}/{METHODS[wc.method]['association']}/distill/distill.json",
-        removal=lambda wc: f"{OUT}/{wc.scene}/{wc.segmenter}/{METHODS[wc.method]['association']}/removed/removal.json",
+        distill=lambda wc: f"{run_dir(wc)}/{METHODS[wc.method]['association']}/distill/distill.json",
+        removal=lambda wc: f"{run_dir(wc)}/{METHODS[wc.method]['association']}/removed/removal.json",
     output:
-        record=f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.json",
+        record=f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/inpaint.json",
         grid=report(
-            f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/grid.png",
+            f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/grid.png",
             caption="../report/grid.rst",
             category="Before / after",
             subcategory="{scene}",
-            labels={"scene": "{scene}", "segmenter": "{segmenter}", "method": "{method}", "figure": "test views"},
+            labels={"scene": "{scene}", "seed": "{seed}", "segmenter": "{segmenter}", "method": "{method}", "figure": "test views"},
         ),
         trajectory=report(
-            f"{OUT}/{{scene}}/{{segmenter}}/methods/{{method}}/trajectory.gif",
+            f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/trajectory.gif",
             caption="../report/trajectory.rst",
             category="Virtual trajectory",
             subcategory="{scene}",
-            labels={"scene": "{scene}", "segmenter": "{segmenter}", "method": "{method}", "figure": "trajectory"},
+            labels={"scene": "{scene}", "seed": "{seed}", "segmenter": "{segmenter}", "method": "{method}", "figure": "trajectory"},
         ),
     params:
         backend=BACKEND,
@@ -35,17 +35,16 @@ rule inpaint:
         iterations=config["inpaint"]["iterations"],
         views=config["inpaint"]["virtual_views"],
         extra=config["inpaint"]["extra_args"],
-        seed=config["seed"],
     threads: THREADS
     resources:
         mem_mb=8000,
         gpu=1 if BACKEND == "gsplat" else 0,
     log:
-        f"{OUT}/logs/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.log",
+        f"{OUT}/logs/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/inpaint.log",
     benchmark:
-        f"{OUT}/benchmarks/{{scene}}/{{segmenter}}/methods/{{method}}/inpaint.tsv"
+        f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/inpaint.tsv"
     shell:
         # the method's switches come last: they override the configured defaults (e.g. L of a sweep run)
         "inpaint360gs inpaint {params.scene_dir:q} {params.distill:q} {params.removed:q} {params.out:q}"
-        " --inpaint-iterations {params.iterations} --virtual-views {params.views} --seed {params.seed}"
+        " --inpaint-iterations {params.iterations} --virtual-views {params.views} --seed {wildcards.seed}"
         " --backend {params.backend} --threads {threads} --overwrite --no-progress {params.extra} {params.switches} > {log:q} 2>&1"

@@ -5,15 +5,16 @@
 - ``table record OUT.json --label scene=S --label method=M --label segmenter=G [--label kind=K]
   [--eval EVAL.json] [--stage NAME=BENCH.tsv ...] [--model PLY ...] [--skip-reason TEXT]``: one run's
   record (:mod:`inpaint360gs.report.records`);
-- ``table paper RECORD.json ... --out-dir DIR [--config CONFIG.yaml] [--seeds N ...]``: the paper's
-  tables from records (:mod:`inpaint360gs.report.paper`).
+- ``table paper RECORD.json ... --out-dir DIR [--config CONFIG.yaml] [--seeds N ...] [--confidence C]
+  [--resamples N] [--bootstrap-seed S]``: the paper's tables from records, with seed spreads and
+  paired bootstrap intervals (:mod:`inpaint360gs.report.paper`, :mod:`inpaint360gs.report.stats`).
 """
 
 from __future__ import annotations
 
 import argparse
 
-from inpaint360gs.cli.common import OneLineParser, check_apart, output_dir, output_file
+from inpaint360gs.cli.common import OneLineParser, check_apart, nonneg_int, number, output_dir, output_file, positive_int
 from inpaint360gs.core.errors import EXIT_INPUT
 
 # table kind -> (title, {metrics.json key: column title}, markdown float format)
@@ -55,8 +56,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p = sub.add_parser("record", help=h, description=h)
     p.add_argument("out", type=output_file, help="record JSON to write")
     p.add_argument("--label", action="append", default=[], metavar="KEY=VALUE",
-                   help="scene=, method=, segmenter= (required), kind=method|baseline|ablation (default method), "
-                        "name= (display name), ablation=a..e (row of paper Tab. 3); repeat the option")
+                   help="scene=, method=, segmenter= (required), kind=method|baseline|ablation (default method), seed= (the run's "
+                        "seed, an integer), name= (display name), ablation=a..e (row of paper Tab. 3); repeat the option")
     p.add_argument("--eval", default=None, metavar="EVAL.json", help="metrics JSON written by inpaint360gs evaluate")
     p.add_argument("--stage", dest="stage_benchmarks", action="append", default=[], metavar="NAME=BENCH.tsv",
                    help="a stage's Snakemake benchmark file (wall seconds, max RSS); repeat per stage")
@@ -68,7 +69,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("records", nargs="+", help="record JSON files written by `table record`")
     p.add_argument("--out-dir", type=output_dir, required=True, help="folder for the .csv/.md/.tex tables and provenance.json")
     p.add_argument("--config", default=None, help="the workflow config YAML (copied into provenance.json)")
-    p.add_argument("--seeds", type=int, nargs="+", default=None, help="seeds of the runs (recorded in provenance.json)")
+    p.add_argument("--seeds", type=int, nargs="+", default=None, help="seeds of the runs (recorded in provenance.json; default: the records' seed labels)")
+    p.add_argument("--confidence", type=number(float, lo=0.0, hi=1.0, lo_open=True, hi_open=True), default=0.95, help="level of the paired bootstrap intervals (default 0.95)")
+    p.add_argument("--resamples", type=positive_int, default=10_000, help="bootstrap resamples (default 10000)")
+    p.add_argument("--bootstrap-seed", type=nonneg_int, default=0, help="seed of the bootstrap's generator (default 0: the same records give the same tables)")
 
 
 def _run_reconstruction(args: argparse.Namespace) -> int:
@@ -103,11 +107,12 @@ def _run_record(args: argparse.Namespace) -> int:
 def _run_paper(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from inpaint360gs.report.paper import output_names, paper_tables
+    from inpaint360gs.report.paper import Bootstrap, output_names, paper_tables
 
     outs = {name: Path(args.out_dir) / name for name in output_names()}
     check_apart(outs, {**{f"RECORD[{i}]": p for i, p in enumerate(args.records, 1)}, "--config": args.config}, replaced=False)
-    tables = paper_tables(args.records, args.out_dir, config=args.config, seeds=args.seeds)
+    boot = Bootstrap(confidence=args.confidence, resamples=args.resamples, seed=args.bootstrap_seed)
+    tables = paper_tables(args.records, args.out_dir, config=args.config, seeds=args.seeds, boot=boot)
     for name, t in tables.items():
         print(f"{name}: {len(t.rows)} row(s)")
     print(f"-> {args.out_dir}/{{{','.join(tables)}}}.{{csv,md,tex}}, provenance.json")

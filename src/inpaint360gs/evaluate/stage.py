@@ -15,8 +15,12 @@ It returns a JSON-ready dict (no NaN or inf anywhere; ``json.dumps(..., allow_na
 - a ``+inf`` PSNR (render equal to the ground truth on every evaluated pixel) is stored as
   ``null`` with a reason, and any mean that includes it is ``null`` with a reason as well;
 - ``scene_metrics``: ``fid`` (pytorch-fid protocol, only with the Inception weights file),
-  ``fd_vgg16`` and ``kid_vgg16`` (substitutes on VGG16 features, always computed) and ``amcr``
-  (paper supp. Eq. 1, over views with a mask file); definitions in ``definitions``;
+  ``fd_vgg16`` and ``kid_vgg16`` (substitutes on VGG16 features, always computed), ``unseen_share``
+  (the coverage of the ground-truth unseen masks: mean over views with a mask file of the percentage
+  of pixels in the mask), ``amcr`` (paper supp. Eq. 1 on the run's own removal masks at the test
+  cameras, given as ``removal_masks``) and ``roi_depth_off`` (the fill's geometry against the true
+  surface, given as ``depth_off``; :mod:`inpaint360gs.report.geometry`), each null with the reason
+  without its input; definitions in ``definitions``;
 - ``weights``: path and sha256 of every weights file used.
 
 A scene without ``test_`` views (built from object-inclusive photos only: there is no object-free
@@ -30,9 +34,10 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from inpaint360gs.core.errors import InputError
@@ -70,8 +75,15 @@ DEFINITIONS = {
         "of full rendered vs ground-truth test views"
     ),
     "kid_vgg16": "substitute for KID: unbiased MMD^2, kernel (x.y/512 + 1)^3, on the fd_vgg16 features of all views at once",
-    "amcr": "AMCR (paper supp. Eq. 1): mean over views with an unseen mask file of 100 * mask pixels / image pixels",
+    "unseen_share": "coverage of the ground-truth unseen masks: mean over views with an unseen mask file of 100 * mask pixels / image pixels",
+    "amcr": ("AMCR (paper supp. Eq. 1) on the run's own removal masks: mean over the test views of 100 * pixels the removal "
+             "leaves to fill / image pixels"),
 }
+DEFINITIONS["roi_depth_off"] = ("percentage of the test views' unseen-mask pixels that the run's model leaves empty or shows more than "
+                                 "5% of the true depth off the object-free surface (gt/depth)")
+NO_REMOVAL_REASON = "no removal masks given (inpaint360gs evaluate --removal REMOVED_DIR computes them at the test cameras)"
+NO_MODEL_REASON = "no model given (inpaint360gs evaluate --model PLY renders its depth at the test cameras)"
+SCENE_KEYS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off")
 PIXELS_PER_BATCH = 1 << 20  # images per network call: a bound on activation memory (~1M pixels)
 
 
@@ -291,6 +303,21 @@ def _lpips_metrics(
     return torch.cat(vgg_r), torch.cat(vgg_g)
 
 
+def _removal_amcr(removal_masks: Mapping[str, np.ndarray] | None, views: list[View]) -> float | None:
+    """AMCR of the removal masks over the test ``views`` (each view needs one of its size)."""
+    if removal_masks is None:
+        return None
+    ordered = []
+    for v in views:
+        m = removal_masks.get(v.name)
+        if m is None:
+            raise InputError(f"no removal mask for test view {v.name}", "removal_masks")
+        if tuple(np.shape(m)) != (v.camera.height, v.camera.width):
+            raise InputError(f"removal mask of {v.name} is {np.shape(m)}, the view {v.camera.height}x{v.camera.width}", "removal_masks")
+        ordered.append(torch.from_numpy(np.asarray(m, dtype=bool)))
+    return amcr(ordered)
+
+
 def _weights_info(nets: tuple, inception: Path | None) -> dict:
     weights: dict = {f"lpips_{n}": _file_info(lpips_weights_info(n)) for n in dict.fromkeys((*nets, "vgg"))}
     weights["inception"] = None
@@ -304,7 +331,7 @@ def _weights_info(nets: tuple, inception: Path | None) -> dict:
 def _no_ground_truth(scene: Scene, renders_dir: Path, nets: tuple) -> dict:
     """The result for a scene without test_ views: every metric null with the reason."""
     names = metric_names(nets)
-    scene_keys = ("fid", "fd_vgg16", "kid_vgg16", "amcr")
+    scene_keys = SCENE_KEYS
     return {
         "scene": str(scene.root),
         "renders_dir": str(renders_dir),
@@ -315,7 +342,7 @@ def _no_ground_truth(scene: Scene, renders_dir: Path, nets: tuple) -> dict:
         "conventions": dict(CONVENTIONS),
         "definitions": dict(DEFINITIONS),
         "mean": dict.fromkeys(names),
-        "num_views_mean": dict.fromkeys((*names, "amcr"), 0),
+        "num_views_mean": dict.fromkeys((*names, "unseen_share", "amcr", "roi_depth_off"), 0),
         "per_view": {},
         "scene_metrics": dict.fromkeys(scene_keys),
         "null_reasons": {"per_view": {}, "mean": dict.fromkeys(names, NO_GROUND_TRUTH),
@@ -338,6 +365,8 @@ def evaluate_renders(
     inception_weights: str | Path | None = None,
     device: str = "cpu",
     resize: int = 1,
+    removal_masks: Mapping[str, np.ndarray] | None = None,
+    depth_off: tuple[float | None, str | None] | None = None,
 ) -> dict:
     """Metrics of the renders in ``renders_dir`` against the test views of ``scene_dir``.
 
@@ -348,7 +377,9 @@ def evaluate_renders(
     records their provenance (``render``'s ``render.json``, an inpainting's ``inpaint.json``) must be
     of this scene at this ``resize`` (docs/architecture.md, "Provenance chain"). A test view without
     an unseen mask file, while others have one, is warned about (its masked and ROI values are null).
-    See the module docstring for the output layout and the handling of nulls.
+    ``removal_masks``: per test view name, the pixels the run's removal leaves to fill (bool, the
+    view's size), for ``amcr``; ``depth_off``: (value, reason when null) of ``roi_depth_off``,
+    computed from the run's model. See the module docstring for the output layout and the handling of nulls.
     """
     nets = tuple(dict.fromkeys(nets))
     unknown = [n for n in nets if n not in LPIPS_METRIC]
@@ -390,10 +421,17 @@ def evaluate_renders(
     mean, counts, mean_reasons = table.means()
     scene_values, scene_reasons = _scene_distances(vgg_features, renders, gts, inception, device)
     with_mask = [m for m in masks if m is not None]
-    scene_values["amcr"] = amcr(with_mask) if with_mask else None
-    counts["amcr"] = len(with_mask)
+    scene_values["unseen_share"] = amcr(with_mask) if with_mask else None
+    counts["unseen_share"] = len(with_mask)
     if not with_mask:
-        scene_reasons["amcr"] = "no test view has an unseen mask file"
+        scene_reasons["unseen_share"] = "no test view has an unseen mask file"
+    scene_values["amcr"], counts["amcr"] = _removal_amcr(removal_masks, views), len(views) if removal_masks is not None else 0
+    if removal_masks is None:
+        scene_reasons["amcr"] = NO_REMOVAL_REASON
+    scene_values["roi_depth_off"], why = depth_off if depth_off is not None else (None, NO_MODEL_REASON)
+    counts["roi_depth_off"] = len(with_mask) if scene_values["roi_depth_off"] is not None else 0
+    if scene_values["roi_depth_off"] is None:
+        scene_reasons["roi_depth_off"] = why or "undefined"
 
     return {
         "scene": str(scene_dir),

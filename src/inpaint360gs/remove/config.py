@@ -27,5 +27,5 @@ class RemovalConfig:
     footprint_margin: float | None = 0.05  # step 4: the footprint column, the outline grown by this x the footprint's size (None: off)
     footprint_depth: float = 0.1  # step 4: the column starts this x the object's height below the support plane
     support_band: float = 0.05  # step 4: selected Gaussians within this x the object's height of the plane ...
-    support_reach: float = 0.25  # ... and farther than this x the footprint's size from its outline are support: they stay
+    support_reach: float = 0.25  # ... farther than this x the footprint's size from its outline, in the support's colours around it, are support: they stay
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour

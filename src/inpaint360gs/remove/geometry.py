@@ -102,12 +102,13 @@ def upright(gaussians: Gaussians, up: np.ndarray) -> np.ndarray:
 
 
 def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarray, bodies: list[np.ndarray], keep: np.ndarray,
-                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict) -> tuple[np.ndarray, list]:  # fmt: skip
+                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict, colours: np.ndarray | None = None) -> tuple[np.ndarray, list]:  # fmt: skip
     """Step 4 (``RemovalConfig.footprint_margin``): ``remove`` plus every Gaussian in each object's
     footprint column (not those in ``keep``: other objects), minus the support Gaussians the
     selection took outside it. ``bodies``: per object, what steps 1-2 took; ``up`` a hint of the
-    support's normal (None: the cameras' up is not known and the column is skipped). Returns the
-    new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
+    support's normal (None: the cameras' up is not known and the column is skipped); ``colours``
+    (N, 3) in [0, 1], None = every low selected Gaussian far enough out counts as support. Returns
+    the new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
     from inpaint360gs.core.support import object_footprint
 
     remove = remove.copy()
@@ -123,8 +124,26 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         h = fp.heights(means)
         d = fp.distance(means)
         column = (d <= cfg.footprint_margin * fp.size) & (h > -cfg.footprint_depth * fp.height) & (h <= FOOTPRINT_TOP * fp.height) & ~keep
-        support = remove & body & (d > cfg.support_reach * fp.size) & (np.abs(h) <= cfg.support_band * fp.height)
+        low = np.abs(h) <= cfg.support_band * fp.height
+        support = remove & body & (d > cfg.support_reach * fp.size) & low
+        if colours is not None and support.any():
+            ring = ~remove & low & (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
+            support[support] = support_coloured(colours[support], colours[ring])
         counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size})
         remove = (remove | column) & ~support
         found.append(fp)
     return remove, found
+
+
+def support_coloured(candidates: np.ndarray, ring: np.ndarray, k: int = 8, quantile: float = 0.9) -> np.ndarray:
+    """(M,) bool: which ``candidates`` (M, 3) colours the support's own ``ring`` (R, 3) colours hold:
+    a candidate's mean colour distance to its ``k`` nearest ring colours is within the ``quantile``
+    of the same distance among the ring's colours (each without itself). Fewer than 2k ring
+    colours: every candidate counts (nothing to compare with)."""
+    from scipy.spatial import cKDTree
+
+    if len(ring) < 2 * k:
+        return np.ones(len(candidates), dtype=bool)
+    tree = cKDTree(ring)
+    own = tree.query(ring, k=k + 1)[0][:, 1:].mean(axis=1)
+    return tree.query(candidates, k=k)[0].mean(axis=1) <= np.quantile(own, quantile)

@@ -27,7 +27,7 @@ import numpy as np
 import torch
 
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.io.scene import View
 from inpaint360gs.remove.config import RemovalConfig
@@ -109,7 +109,8 @@ def remove_objects(
     footprints = []
     if cfg.footprint_margin is not None:
         opac = field_.gaussians.opacities.detach().cpu().double().numpy()
-        remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts)
+        colours = (SH_C0 * field_.gaussians.sh0[:, 0].detach().cpu().double().numpy() + 0.5).clip(0.0, 1.0)
+        remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts, colours)
     mask = torch.from_numpy(remove)
     return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts, footprints)
 

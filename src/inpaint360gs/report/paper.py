@@ -1,26 +1,30 @@
 """The paper's tables from per-run records (:mod:`.records`): ``inpaint360gs table paper``.
 
-Written into one folder, each table as ``.csv`` (numbers at full precision), ``.md`` and ``.tex``
-(booktabs; the best / second / third value of each column marked as the paper marks them, with the
-metric's direction: higher is better for PSNR and SSIM, lower for LPIPS, FID, FD, KID, AMCR, minutes
-and megabytes):
+Written into one folder, each table as ``.csv`` (full precision), ``.md`` and ``.tex`` (booktabs). A
+*run* is one (scene, seed) of a method. The comparisons follow :mod:`.stats`: a row's value is its
+mean over the runs it is compared on ``±`` the standard deviation over seeds of its scene average;
+a Δ row is the mean paired difference with its 95 % paired bootstrap interval and ``better`` /
+``worse`` (the interval excludes zero) or ``tied``; a value is **bold** only when its row beats every
+other compared row with an interval that excludes zero, otherwise the rows tied with the best mean
+are marked ``(tied)``.
 
-- ``per_scene``: every metric of every (scene, method, segmenter) (paper supp. "Per-Scene Breakdown");
-  marks among the methods and baselines of each scene;
-- ``table1_average``: methods and baselines, PSNR / SSIM / LPIPS full, ``masked_*`` and ``roi_*``, and
-  FID, or the labelled substitute ``fd_vgg16`` where FID is null, averaged over scenes (paper Tab. 1);
-- ``table3_ablation``: the ablations a)-e) against the full method, same metrics (paper Tab. 3);
-- ``table2_runtime``: per method, minutes per stage and in total, model storage in MB, peak RSS,
-  averaged over scenes (paper Tab. 2); ``table2_runtime_detail``: every scene's stages and their
-  average per method (paper supp. "Detailed Runtime");
-- ``provenance.json``: git commit, the workflow config, package versions, machine, seeds, weights
-  files (basename and sha256) and the input records.
+The tables:
 
-Averages are taken only over the scenes every compared row has (a row with more scenes keeps them
-in ``per_scene`` and the note under the table names what was left out); records without metrics
-(scenes without ground truth) are listed in ``per_scene`` with their reason and left out of every
-average, which the notes say. Every table is built before the first file is written, and each
-file is written atomically (docs/architecture.md, "Reliability").
+- ``per_scene``: every metric of every run (paper supp. "Per-Scene Breakdown"), no marks;
+- ``table1_average``: methods and baselines, PSNR / SSIM / LPIPS full, ``masked_*`` and ``roi_*``,
+  FID (or the labelled substitute ``fd_vgg16``) and the fill's geometry (``roi_depth_off``), with
+  Δ rows for the method minus each baseline; AMCR (supp. Eq. 1, each run's own removal masks) and
+  the ground-truth unseen share as context columns (paper Tab. 1);
+- ``table3_ablation``: ablations a)-e) against the full method on the runs each ablation has (one
+  block per set of scenes), Δ rows and a note per ablation on what it changes (paper Tab. 3);
+- ``table2_runtime`` and ``table2_runtime_detail``: minutes per stage, storage, peak RSS (paper
+  Tab. 2 and supp. "Detailed Runtime"), no marks;
+- ``provenance.json``: commit, config, package versions, machine, seeds, bootstrap settings,
+  weights files (basename, sha256) and the input records.
+
+Averages use only the runs every compared row has (the note says what was left out); records
+without metrics (no ground truth) are listed in ``per_scene`` with their reason. Every table is
+built before the first file is written, each file atomically (docs/architecture.md, "Reliability").
 """
 
 from __future__ import annotations
@@ -39,10 +43,10 @@ import pandas as pd
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import check_readable
 from inpaint360gs.io.atomic import atomic_path, write_text
+from inpaint360gs.report import stats
 from inpaint360gs.report.records import METRICS, load_records, sha256_file
+from inpaint360gs.report.stats import HIGHER, LOWER, NONE, Run
 from inpaint360gs.report.tables import git_commit, provenance_line
-
-HIGHER, LOWER, NONE = 1, -1, 0
 
 # metric -> (title, direction, format) in the paper's column order (Tab. 1, supp. per-scene table)
 METRIC_COLUMNS: dict[str, tuple[str, int, str]] = {
@@ -61,11 +65,16 @@ METRIC_COLUMNS: dict[str, tuple[str, int, str]] = {
     "fid": ("FID", LOWER, ".2f"),
     "fd_vgg16": ("FD-VGG16", LOWER, ".2f"),
     "kid_vgg16": ("KID-VGG16", LOWER, ".4g"),
-    "amcr": ("AMCR (%)", LOWER, ".2f"),
+    "roi_depth_off": ("ROI depth off (%)", LOWER, ".2f"),  # the fill's geometry (report/geometry.py)
+    # properties of the run's removal and of the scene: more or less of either is neither better nor worse
+    "amcr": ("AMCR (%)", NONE, ".2f"),
+    "unseen_share": ("unseen share (%)", NONE, ".2f"),
 }
 assert set(METRIC_COLUMNS) == set(METRICS)
-# the averaged columns of Tabs. 1 and 3; the last one is FID or its substitute
+# the compared columns of Tabs. 1 and 3 (then FID or its substitute), and the context columns
 AVERAGE_METRICS = ("psnr", "masked_psnr", "roi_psnr", "ssim", "masked_ssim", "roi_ssim", "lpips", "masked_lpips", "roi_lpips")
+GEOMETRY_METRICS = ("roi_depth_off",)  # compared after FID: the fill's surface against the true one
+CONTEXT_METRICS = ("amcr", "unseen_share")
 
 # paper Tab. 3: letter -> (name, method ids recognised without an ``ablation=`` label)
 ABLATIONS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -82,10 +91,21 @@ STAGE_ORDER = ("train", "segment", "associate", "distill", "remove", "inpaint", 
 NOT_IN_TOTAL = ("evaluate",)
 KIND_ORDER = {"baseline": 0, "method": 1, "ablation": 2, "sweep": 3}
 
-MARKS_MD = ("**{}**", "<ins>{}</ins>", "_{}_")
-MARKS_TEX = (r"\textbf{{{}}}", r"\underline{{{}}}", r"\textit{{{}}}")
 MISSING = "–"  # a value that is null (the notes say why)
 NOT_RUN = "—"  # a stage the method does not have
+SUFFIXES = ("std", "ci_low", "ci_high", "mark")  # the statistics of a value (CSV columns <metric>_<suffix>)
+
+
+@dataclass(frozen=True)
+class Bootstrap:
+    """Settings of the paired bootstrap intervals (:func:`.stats.bootstrap_mean`)."""
+
+    confidence: float = stats.CONFIDENCE
+    resamples: int = stats.RESAMPLES
+    seed: int = stats.BOOTSTRAP_SEED
+
+    def kw(self) -> dict:
+        return {"confidence": self.confidence, "resamples": self.resamples, "seed": self.seed}
 
 
 @dataclass
@@ -94,6 +114,7 @@ class Column:
     title: str
     direction: int = NONE
     fmt: str = ".4g"
+    stats: bool = False  # carries <key>_std, _ci_low, _ci_high, _mark
 
 
 @dataclass
@@ -102,62 +123,55 @@ class Table:
     title: str
     labels: list[tuple[str, str]]  # (key, title) of the text columns
     columns: list[Column]  # numeric columns
-    rows: list[dict] = field(default_factory=list)  # label values, numbers (None = missing), "_not_run": set of keys
+    rows: list[dict] = field(default_factory=list)  # label values, numbers (None = missing), statistics, "_not_run": set of keys
     notes: list[str] = field(default_factory=list)
-    rank_by: tuple[str, ...] = ()  # rows ranked within groups of equal values of these labels
-    rank_rows: tuple[str, ...] | None = None  # kinds of rows that are ranked (None: all)
     rule_by: str | None = None  # a rule between rows where this label changes (.tex)
     csv_only: tuple[str, ...] = ()  # label keys shown only in the CSV
     note_column: str | None = None  # a text column shown last
-    marked: bool = True  # best / second / third marks (False: a breakdown without comparisons)
+    compared: bool = False  # rows carry first places and Δ rows (the legend explains them)
+
+
+# --- rendering ---------------------------------------------------------------------------------
 
 
 def _fmt(v: float | None, fmt: str) -> str:
     return MISSING if v is None else format(v, fmt)
 
 
-def ranks(table: Table) -> dict[tuple[int, str], int]:
-    """(row index, column key) -> 1, 2 or 3 for the best, second and third value of each ranked
-    column, within each group of ``rank_by``. Values equal as printed share a rank (dense ranking);
-    a column whose values in a group are all equal as printed gets no marks there."""
-    out: dict[tuple[int, str], int] = {}
-    if not table.marked:
-        return out
-    groups: dict[tuple, list[int]] = {}
-    for i, row in enumerate(table.rows):
-        if table.rank_rows is None or row.get("kind") in table.rank_rows:
-            groups.setdefault(tuple(row.get(k) for k in table.rank_by), []).append(i)
-    for idx in groups.values():
-        for col in table.columns:
-            if col.direction == NONE:
-                continue
-            vals = {i: float(_fmt(table.rows[i][col.key], col.fmt)) for i in idx if table.rows[i].get(col.key) is not None}
-            if len(set(vals.values())) < 2:  # one value, or all equal: nothing to tell apart
-                continue
-            distinct = sorted(set(vals.values()), reverse=col.direction == HIGHER)
-            for i, v in vals.items():
-                r = distinct.index(v) + 1
-                if r <= 3:
-                    out[(i, col.key)] = r
-    return out
+def _cell(row: dict, col: Column, bold, escape) -> str:
+    """A cell's text: ``mean ± std`` (bold when best, ``(tied)`` when tied for first), or for a Δ
+    row ``+diff [low, high] verdict``; an empty cell where a Δ row does not compare the column."""
+    if col.key in row.get("_not_run", ()):
+        return escape(NOT_RUN)
+    v = row.get(col.key)
+    if row.get("row_type") == "difference" and col.stats:
+        if v is None:
+            return "" if col.direction == NONE else escape(MISSING)
+        text = format(v, "+" + col.fmt)
+        low, high = row.get(f"{col.key}_ci_low"), row.get(f"{col.key}_ci_high")
+        if low is not None and high is not None:
+            text += f" [{format(low, col.fmt)}, {format(high, col.fmt)}]"
+        mark = row.get(f"{col.key}_mark")
+        return escape(f"{text} {mark}" if mark else text)
+    text = _fmt(v, col.fmt)
+    std = row.get(f"{col.key}_std")
+    if v is not None and std is not None:
+        text += f" ± {format(std, col.fmt)}"
+    mark = row.get(f"{col.key}_mark")
+    if mark == "best":
+        return bold(escape(text))
+    return escape(f"{text} (tied)" if mark == "tied" else text)
 
 
-def _cells(table: Table, marks: tuple[str, str, str], escape) -> tuple[list[str], list[list[str]]]:
-    rk = ranks(table)
+def _cells(table: Table, bold, escape) -> tuple[list[str], list[list[str]]]:
     labels = [(k, t) for k, t in table.labels if k not in table.csv_only]
     head = [escape(t) for _, t in labels] + [c.title for c in table.columns]
     if table.note_column:
         head.append(escape("note"))
     body = []
-    for i, row in enumerate(table.rows):
-        cells = [escape(str(row.get(k, ""))) for k, _ in labels]
-        for c in table.columns:
-            if c.key in row.get("_not_run", ()):
-                cells.append(NOT_RUN)
-                continue
-            text = _fmt(row.get(c.key), c.fmt)
-            r = rk.get((i, c.key))
-            cells.append(marks[r - 1].format(text) if r else text)
+    for row in table.rows:
+        cells = [escape(str(row.get(k) or "")) for k, _ in labels]
+        cells += [_cell(row, c, bold, escape) for c in table.columns]
         if table.note_column:
             cells.append(escape(str(row.get(table.note_column) or "")))
         body.append(cells)
@@ -165,7 +179,13 @@ def _cells(table: Table, marks: tuple[str, str, str], escape) -> tuple[list[str]
 
 
 def to_csv(table: Table) -> str:
-    cols = [k for k, _ in table.labels] + [c.key for c in table.columns] + ([table.note_column] if table.note_column else [])
+    cols = [k for k, _ in table.labels]
+    for c in table.columns:
+        cols.append(c.key)
+        if c.stats:
+            cols += [f"{c.key}_{s}" for s in SUFFIXES]
+    if table.note_column:
+        cols.append(table.note_column)
     df = pd.DataFrame([{k: row.get(k) for k in cols} for row in table.rows], columns=cols)
     return df.to_csv(index=False, float_format="%.10g")
 
@@ -178,24 +198,31 @@ def _arrow(direction: int, tex: bool) -> str:
     return " ↑" if direction == HIGHER else " ↓"
 
 
+def _legend(table: Table, bold: str) -> str:
+    text = ""
+    if table.compared:
+        text = ("Value ± standard deviation over seeds of the average over scenes (no ± with one seed); "
+                f"Δ rows: mean paired difference [{stats.CONFIDENCE:.0%} paired bootstrap interval over the runs] and better / worse "
+                "(the interval excludes 0) or tied (it includes 0). ↑ higher is better, ↓ lower is better; "
+                f"{bold}: better than every other compared row with an interval excluding 0; (tied): tied for first. ")
+    text += f"{MISSING} = no value (see the notes)"
+    return text + (f", {NOT_RUN} = stage not run by this method." if any(r.get("_not_run") for r in table.rows) else ".")
+
+
 def to_markdown(table: Table, footer: str | None = None) -> str:
     """Title, table, legend, notes and ``footer`` (default: the provenance line)."""
-    cols = [Column(c.key, c.title + _arrow(c.direction, False), c.direction, c.fmt) for c in table.columns]
+    cols = [Column(c.key, c.title + _arrow(c.direction, False), c.direction, c.fmt, c.stats) for c in table.columns]
     t = Table(**{**table.__dict__, "columns": cols})
-    head, body = _cells(t, MARKS_MD, lambda s: s.replace("|", "\\|"))
-    if body:
-        text = pd.DataFrame(body, columns=head).to_markdown(index=False, disable_numparse=True)
-    else:
-        text = "(no rows)"
-    legend = "Per column (↑ higher is better, ↓ lower is better): **best**, <ins>second</ins>, _third_; " if table.marked else ""
-    legend += f"{MISSING} = no value (see the notes)" + (f", {NOT_RUN} = stage not run by this method." if any(r.get("_not_run") for r in table.rows) else ".")
+    head, body = _cells(t, "**{}**".format, lambda s: s.replace("|", "\\|"))
+    text = pd.DataFrame(body, columns=head).to_markdown(index=False, disable_numparse=True) if body else "(no rows)"
     notes = "".join(f"- {n}\n" for n in table.notes)
-    return (f"# {table.title}\n\n{text}\n\n{legend}\n\n" + (f"Notes:\n\n{notes}\n" if notes else "")
+    return (f"# {table.title}\n\n{text}\n\n{_legend(table, '**bold**')}\n\n" + (f"Notes:\n\n{notes}\n" if notes else "")
             + (footer if footer is not None else f"Provenance: {provenance_line()}; inputs and versions in provenance.json.") + "\n")
 
 
 _TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"\#", "_": r"\_", "{": r"\{", "}": r"\}",
-                "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "–": "--", "—": "---", "↑": r"$\uparrow$", "↓": r"$\downarrow$"}
+                "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "–": "--", "—": "---", "↑": r"$\uparrow$", "↓": r"$\downarrow$",
+                "±": r"$\pm$", "Δ": r"$\Delta$", "−": r"$-$", "×": r"$\times$"}
 
 
 def tex_escape(s: str) -> str:
@@ -204,10 +231,9 @@ def tex_escape(s: str) -> str:
 
 def to_latex(table: Table) -> str:
     """A booktabs ``table`` environment (needs ``\\usepackage{booktabs}``); notes in the caption."""
-    cols = [Column(c.key, tex_escape(c.title) + _arrow(c.direction, True), c.direction, c.fmt) for c in table.columns]
+    cols = [Column(c.key, tex_escape(c.title) + _arrow(c.direction, True), c.direction, c.fmt, c.stats) for c in table.columns]
     t = Table(**{**table.__dict__, "columns": cols})
-    head, body = _cells(t, MARKS_TEX, tex_escape)
-    body = [[tex_escape(x) if x in (MISSING, NOT_RUN) else x for x in row] for row in body]
+    head, body = _cells(t, r"\textbf{{{}}}".format, tex_escape)
     n_labels = len([k for k, _ in table.labels if k not in table.csv_only])
     spec = "l" * n_labels + "r" * len(table.columns) + ("l" if table.note_column else "")
     lines = [
@@ -222,13 +248,20 @@ def to_latex(table: Table) -> str:
         prev = row.get(table.rule_by) if table.rule_by else None
         lines.append(" & ".join(cells) + r" \\")
     lines += ["\\bottomrule", "\\end{tabular}"]
-    legend = (r"Per column: \textbf{best}, \underline{second}, \textit{third}; " if table.marked else "") + "-- = no value."
-    caption = " ".join([f"\\textbf{{{tex_escape(table.title)}.}}", legend, *(tex_escape(n) for n in table.notes)])
+    caption = " ".join([f"\\textbf{{{tex_escape(table.title)}.}}", tex_escape(_legend(table, "bold")), *(tex_escape(n) for n in table.notes)])
     lines += [f"\\caption{{{caption}}}", f"\\label{{tab:{table.name.replace('_', '-')}}}", "\\end{table}", ""]
     return "\n".join(lines)
 
 
-# --- grouping and averages ---------------------------------------------------------------------
+# --- runs, groups and common runs ------------------------------------------------------------
+
+
+def _run(rec: dict) -> Run:
+    return rec["labels"]["scene"], rec["labels"].get("seed", "")
+
+
+def _run_text(run: Run) -> str:
+    return run[0] if not run[1] else f"{run[0]} (seed {run[1]})"
 
 
 def _key(rec: dict) -> tuple[str, str]:
@@ -243,46 +276,44 @@ def _who(key: tuple[str, str]) -> str:
     return f"{key[0]}/{key[1]}"
 
 
-def _groups(records: list[dict], kinds: tuple[str, ...]) -> dict[tuple[str, str], list[dict]]:
-    """Records of ``kinds`` by (method, segmenter), baselines first, then in input order."""
+def _seed_order(seed: str) -> tuple[int, str]:
+    return (int(seed), seed) if seed.isdigit() else (-1, seed)
+
+
+def _describe(runs) -> str:
+    """``9 scenes (a, b, ...) x seeds 0, 1, 2`` (or the runs one by one when not every scene has every seed)."""
+    runs = sorted(runs, key=lambda r: (r[0], _seed_order(r[1])))
+    scenes = sorted({r[0] for r in runs})
+    seeds = sorted({r[1] for r in runs}, key=_seed_order)
+    if len(runs) != len(scenes) * len(seeds):
+        return f"{len(runs)} run(s): " + ", ".join(_run_text(r) for r in runs)
+    text = f"{len(scenes)} scene(s) ({', '.join(scenes)})"
+    return text + (f" × seed(s) {', '.join(seeds)}" if seeds != [""] else "")
+
+
+def _groups(records: list[dict], kinds: tuple[str, ...]) -> dict[tuple[str, str], dict[Run, dict]]:
+    """Records of ``kinds`` by (method, segmenter) and run, baselines first, then in input order."""
     order = sorted((r for r in records if r["labels"]["kind"] in kinds), key=lambda r: KIND_ORDER[r["labels"]["kind"]])
-    out: dict[tuple[str, str], list[dict]] = {}
+    out: dict[tuple[str, str], dict[Run, dict]] = {}
     for r in order:
-        out.setdefault(_key(r), []).append(r)
+        out.setdefault(_key(r), {})[_run(r)] = r
     return out
 
 
-def _common_scenes(groups: dict[tuple[str, str], list[dict]], what: str, notes: list[str]) -> set[str]:
-    """Scenes every group has; a note names each scene left out and the groups that lack it."""
-    sets = {g: {r["labels"]["scene"] for r in recs} for g, recs in groups.items()}
+def _common_runs(groups: dict[tuple[str, str], dict[Run, dict]], what: str, notes: list[str]) -> set[Run]:
+    """Runs every group has; a note names each run left out and the groups that lack it."""
+    sets = {g: set(recs) for g, recs in groups.items()}
     if not sets:
         return set()
     common = set.intersection(*sets.values())
-    for s in sorted(set.union(*sets.values()) - common):
-        have = [_who(g) for g, scenes in sets.items() if s in scenes]
-        lacking = [_who(g) for g, scenes in sets.items() if s not in scenes]
-        notes.append(f"Scene {s} is left out of every average: {', '.join(have)} {'has' if len(have) == 1 else 'have'} {what} there, "
-                     f"{', '.join(lacking)} not (averages are over the same scenes for every row).")
+    for run in sorted(set.union(*sets.values()) - common, key=lambda r: (r[0], _seed_order(r[1]))):
+        have = [_who(g) for g, runs in sets.items() if run in runs]
+        lacking = [_who(g) for g, runs in sets.items() if run not in runs]
+        notes.append(f"{'Scene' if not run[1] else 'Run'} {_run_text(run)} is left out of every average: {', '.join(have)} "
+                     f"{'has' if len(have) == 1 else 'have'} {what} there, {', '.join(lacking)} not (averages are over the same runs for every row).")
     if not common:
-        notes.append(f"No scene has {what} for every row: nothing is averaged.")
+        notes.append(f"No run has {what} for every row: nothing is averaged.")
     return common
-
-
-def _mean_row(key, recs: list[dict], metrics: tuple[str, ...], notes: list[str]) -> dict:
-    row = {}
-    for m in metrics:
-        vals = [(r["labels"]["scene"], r["metrics"][m], r.get("null_reasons", {}).get(m)) for r in recs]
-        nulls = [(s, why) for s, v, why in vals if v is None]
-        if not recs:
-            row[m] = None
-        elif nulls:
-            row[m] = None
-            s, why = nulls[0]
-            notes.append(f"{METRIC_COLUMNS[m][0]} of {_who(key)} is not averaged: null in scene {s}"
-                         + (f" ({why})" if why else "") + (f" and {len(nulls) - 1} more" if len(nulls) > 1 else "") + ".")
-        else:
-            row[m] = sum(v for _, v, _ in vals) / len(vals)
-    return row
 
 
 def _without_metrics(records: list[dict], kinds: tuple[str, ...], notes: list[str]) -> list[dict]:
@@ -292,7 +323,7 @@ def _without_metrics(records: list[dict], kinds: tuple[str, ...], notes: list[st
         if r["labels"]["kind"] not in kinds:
             continue
         if r.get("skip_reason"):
-            notes.append(f"Scene {r['labels']['scene']} of {_who(_key(r))} has no metrics ({r['skip_reason']}); "
+            notes.append(f"Scene {_run_text(_run(r))} of {_who(_key(r))} has no metrics ({r['skip_reason']}); "
                          "it is listed in per_scene and left out of this average.")
         else:
             keep.append(r)
@@ -305,73 +336,120 @@ def _fid_column(recs: list[dict], notes: list[str]) -> str:
     if not recs or not missing:
         return "fid"
     why = missing[0].get("null_reasons", {}).get("fid") or "no reason recorded"
-    notes.append(f"FID is null in {len(missing)} of {len(recs)} averaged runs ({why}); the last column is its substitute "
+    notes.append(f"FID is null in {len(missing)} of {len(recs)} averaged runs ({why}); the FID column is its substitute "
                  "FD-VGG16 (Fréchet distance on VGG16 features), not comparable with the paper's FID values.")
     return "fd_vgg16"
 
 
 def _metric_column(m: str, substitute: bool = False) -> Column:
     title, direction, fmt = METRIC_COLUMNS[m]
-    return Column(m, title + (" (FID substitute)" if substitute else ""), direction, fmt)
+    return Column(m, title + (" (FID substitute)" if substitute else ""), direction, fmt, stats=True)
 
 
-def _average_table(name: str, title: str, records: list[dict], kinds: tuple[str, ...], notes: list[str]) -> tuple[Table, dict]:
+# --- rows with statistics --------------------------------------------------------------------
+
+
+def _values(recs: dict[Run, dict], runs: set[Run], metric: str) -> dict[Run, float | None]:
+    return {r: recs[r]["metrics"][metric] for r in runs}
+
+
+def _mean_row(key, recs: dict[Run, dict], runs: set[Run], metrics: tuple[str, ...], notes: list[str]) -> dict:
+    """Mean and seed spread of each metric over ``runs``; a note for a metric null in some run."""
+    row: dict = {"row_type": "mean", "n_runs": len(runs)}
+    for m in metrics:
+        vals = _values(recs, runs, m)
+        nulls = sorted(r for r, v in vals.items() if v is None)
+        if not runs:
+            row[m] = None
+        elif nulls:
+            row[m] = None
+            why = recs[nulls[0]].get("null_reasons", {}).get(m)
+            notes.append(f"{METRIC_COLUMNS[m][0]} of {_who(key)} is not averaged: null in {_run_text(nulls[0])}"
+                         + (f" ({why})" if why else "") + (f" and {len(nulls) - 1} more" if len(nulls) > 1 else "") + ".")
+        else:
+            row[m] = sum(vals.values()) / len(vals)
+            row[f"{m}_std"] = stats.seed_spread(vals)
+    return row
+
+
+def _mark_first_places(rows: dict[tuple[str, str], dict], recs: dict[tuple[str, str], dict[Run, dict]], runs: set[Run],
+                       metrics: tuple[str, ...], boot: Bootstrap) -> None:
+    """``<metric>_mark`` = best / tied on the mean rows ``rows`` (compared on ``runs``)."""
+    for m in metrics:
+        direction = METRIC_COLUMNS[m][1]
+        if direction == NONE:
+            continue
+        vals = {g: _values(recs[g], runs, m) for g in rows if rows[g].get(m) is not None}
+        place = stats.first_place(vals, direction, **boot.kw())
+        if place is None:
+            continue
+        if place.best is not None:
+            rows[place.best][f"{m}_mark"] = "best"
+        for g in place.tied:
+            rows[g][f"{m}_mark"] = "tied"
+
+
+def _difference_row(a: dict[Run, dict], b: dict[Run, dict], runs: set[Run], metrics: tuple[str, ...], boot: Bootstrap) -> dict:
+    """``a - b`` per compared metric over ``runs``: mean, interval, verdict (for ``a``)."""
+    row: dict = {"row_type": "difference", "n_runs": len(runs)}
+    for m in metrics:
+        direction = METRIC_COLUMNS[m][1]
+        iv = stats.paired_difference(_values(a, runs, m), _values(b, runs, m), **boot.kw()) if direction != NONE else None
+        if iv is None:
+            row[m] = None
+            continue
+        row[m], row[f"{m}_ci_low"], row[f"{m}_ci_high"] = iv.mean, iv.low, iv.high
+        row[f"{m}_mark"] = iv.verdict(direction)  # tied without an interval (one pair)
+    return row
+
+
+def _stats_notes(runs: set[Run], boot: Bootstrap) -> list[str]:
+    seeds = {r[1] for r in runs}
+    spread = ("± = standard deviation over the seeds of the average over scenes (what changing only the seeds of every stage "
+              "after 3DGS does to the number; 3DGS itself is trained once per scene)") if len(seeds) > 1 else "one seed per scene: no ± (no seed spread)"
+    return [f"{spread}. Δ = mean of the paired differences over the runs; in brackets its {boot.confidence:.0%} bootstrap interval "
+            f"({boot.resamples} resamples of the (scene, seed) pairs, RNG seed {boot.seed}; percentiles at the level expanded for "
+            f"small samples, report/stats.py; none below {stats.MIN_PAIRS} pairs); a run is one scene at one seed."]
+
+
+def _segmenters(groups) -> list[str]:
+    return list(dict.fromkeys(g[1] for g in groups))
+
+
+def table1(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
+    notes: list[str] = []
+    kinds = ("baseline", "method")
     recs = _without_metrics(records, kinds, notes)
     groups = _groups(recs, kinds)
-    common = _common_scenes(groups, "metrics", notes)
-    used = {g: [r for r in rs if r["labels"]["scene"] in common] for g, rs in groups.items()}
-    fid = _fid_column([r for rs in used.values() for r in rs], notes)
-    metrics = (*AVERAGE_METRICS, fid)
+    common = _common_runs(groups, "metrics", notes)
+    fid = _fid_column([g[r] for g in groups.values() for r in common], notes)
+    compared = (*AVERAGE_METRICS, fid, *GEOMETRY_METRICS)
+    metrics = (*compared, *CONTEXT_METRICS)
     table = Table(
-        name, title,
-        labels=[("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter"), ("kind", "Kind")],
-        columns=[Column("n_scenes", "scenes"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)],
-        notes=notes, csv_only=("method",),
+        "table1_average", "Average over runs of the methods and baselines (paper Tab. 1)",
+        labels=[("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter"), ("kind", "Kind"), ("row_type", "Row"), ("vs", "vs")],
+        columns=[Column("n_runs", "runs", fmt="d"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)],
+        notes=notes, csv_only=("method", "row_type", "vs"), compared=True,
     )
-    for g, rs in used.items():
-        first = groups[g][0]
-        row = {"method": g[0], "name": _name(first), "segmenter": g[1], "kind": first["labels"]["kind"], "n_scenes": len(rs)}
-        row.update(_mean_row(g, rs, metrics, notes))
-        table.rows.append(row)
+    rows = {}
+    for g, recs_g in groups.items():
+        first = next(iter(recs_g.values()))
+        rows[g] = {"method": g[0], "name": _name(first), "segmenter": g[1], "kind": first["labels"]["kind"], "vs": ""}
+        rows[g].update(_mean_row(g, recs_g, common, metrics, notes))
+    _mark_first_places(rows, groups, common, compared, boot)
+    table.rows += list(rows.values())
+    baselines = [g for g in groups if rows[g]["kind"] == "baseline"]
+    for a in (g for g in groups if rows[g]["kind"] == "method"):
+        # against the baselines run with the method's segmenter, or every baseline when none was (e.g. external records)
+        for b in [g for g in baselines if g[1] == a[1]] or baselines:
+            row = {"method": a[0], "name": f"Δ {rows[a]['name']} − {rows[b]['name']}", "segmenter": a[1], "kind": "difference", "vs": b[0]}
+            row.update(_difference_row(groups[a], groups[b], common, compared, boot))
+            table.rows.append(row)
     if common:
-        notes.insert(0, f"Averaged over {len(common)} scene(s): {', '.join(sorted(common))}.")
-    return table, groups
-
-
-def per_scene_table(records: list[dict]) -> Table:
-    notes: list[str] = []
-    table = Table(
-        "per_scene", "Per-scene results of every method, baseline and ablation",
-        labels=[("scene", "Scene"), ("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter"), ("kind", "Kind")],
-        columns=[_metric_column(m) for m in METRIC_COLUMNS],
-        notes=notes, rank_by=("scene",), rank_rows=("method", "baseline"), rule_by="scene", csv_only=("method",),
-        note_column="note",
-    )
-    order = sorted(range(len(records)), key=lambda i: (records[i]["labels"]["scene"], KIND_ORDER[records[i]["labels"]["kind"]], i))
-    reasons: dict[tuple[str, str], list[str]] = {}
-    for i in order:
-        r = records[i]
-        lab = r["labels"]
-        row = {"scene": lab["scene"], "method": lab["method"], "name": _name(r), "segmenter": lab["segmenter"], "kind": lab["kind"],
-               "note": r.get("skip_reason") or ""}
-        row.update({m: r["metrics"][m] for m in METRIC_COLUMNS})
-        table.rows.append(row)
-        if not r.get("skip_reason"):
-            for m in METRIC_COLUMNS:
-                if r["metrics"][m] is None:
-                    reasons.setdefault((m, r.get("null_reasons", {}).get(m) or "no reason recorded"), []).append(f"{lab['scene']} {_who(_key(r))}")
-    skipped = [r for r in records if r.get("skip_reason")]
-    if skipped:
-        notes.append(f"{len(skipped)} run(s) have no metrics (reason in the note column) and are left out of every average.")
-    for (m, why), where in reasons.items():
-        notes.append(f"{METRIC_COLUMNS[m][0]} is null in {len(where)} run(s) ({why}): {', '.join(where[:3])}{', ...' if len(where) > 3 else '.'}")
-    notes.append("Marks compare the methods and baselines of each scene; ablation rows are not marked.")
-    return table
-
-
-def table1(records: list[dict]) -> Table:
-    table, _ = _average_table("table1_average", "Average over scenes of the methods and baselines (paper Tab. 1)",
-                              records, ("baseline", "method"), [])
+        notes.insert(0, f"Averaged over {len(common)} run(s): {_describe(common)}.")
+        notes[1:1] = _stats_notes(common, boot)
+    notes.append("AMCR (paper supp. Eq. 1) = percentage of the test views' pixels that the run's own removal leaves to fill; unseen share = "
+                 "percentage under the ground-truth unseen masks (the same for every method). Both describe the task, neither is compared.")
     return table
 
 
@@ -385,27 +463,128 @@ def _ablation_letter(rec: dict) -> str | None:
     return None
 
 
-def table3(records: list[dict]) -> Table:
+def _ablation_name(rec: dict) -> str:
+    letter = _ablation_letter(rec)
+    name = rec["labels"].get("name") or (ABLATIONS[letter][0] if letter else rec["labels"]["method"])
+    return f"{letter}) {name}" if letter else name
+
+
+def _verdicts(row: dict, metrics: tuple[str, ...]) -> str:
+    """What the Δ row of an ablation says, in words: on which metrics the switched-off run is worse or better."""
+    by: dict[str, list[str]] = {"worse": [], "better": [], "tied": []}
+    for m in metrics:
+        mark = row.get(f"{m}_mark")
+        by[mark if mark in by else "tied"].append(METRIC_COLUMNS[m][0])
+    parts = [f"{w} on {', '.join(by[w])}" for w in ("worse", "better") if by[w]]
+    if by["tied"]:
+        parts.append(f"no measurable effect on {'the other ' if parts else ''}{len(by['tied'])} compared metric(s)"
+                     + (f" ({', '.join(by['tied'])})" if not parts else ""))
+    return "; ".join(parts)
+
+
+def table3(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
+    """The ablations against the full method, each on the runs it has; ablations with the same runs
+    share a block (and the full method's row of it)."""
     notes: list[str] = []
     if not any(r["labels"]["kind"] == "ablation" for r in records):
         notes.append("No ablation records (label kind=ablation) were given.")
-    table, groups = _average_table("table3_ablation", "Ablation against the full method (paper Tab. 3)", records, ("ablation", "method"), notes)
-    table.rank_by, table.rule_by = ("segmenter",), "segmenter"
-    table.labels = [("method", "Method"), ("row", "Row"), ("segmenter", "Segmenter"), ("kind", "Kind")]
-    table.csv_only = ("method", "kind")
-    by_key = {(row["method"], row["segmenter"]): row for row in table.rows}
-    for key, row in by_key.items():
-        first = groups[key][0]
-        if row["kind"] == "ablation":
-            letter = _ablation_letter(first)
-            name = first["labels"].get("name") or (ABLATIONS[letter][0] if letter else first["labels"]["method"])
-            row["row"] = f"{letter}) {name}" if letter else name
-            row["_order"] = (0, "abcde".index(letter) if letter else 5)
-        else:
-            row["row"] = f"Ours ({_name(first)})"
-            row["_order"] = (1, 0)
-    table.rows.sort(key=lambda row: (row["segmenter"], row["_order"]))
+    recs = _without_metrics(records, ("method", "ablation"), notes)
+    groups = _groups(recs, ("method", "ablation"))
+    fid = _fid_column([r for g in groups.values() for r in g.values()], notes)
+    compared = (*AVERAGE_METRICS, fid, *GEOMETRY_METRICS)
+    metrics = (*compared, "amcr")
+    table = Table(
+        "table3_ablation", "Ablations against the full method (paper Tab. 3)",
+        labels=[("block", "Block"), ("method", "Method"), ("row", "Row"), ("segmenter", "Segmenter"), ("kind", "Kind"), ("row_type", "Row type"),
+                ("runs", "Runs")],
+        columns=[Column("n_runs", "runs", fmt="d"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)],
+        notes=notes, csv_only=("method", "kind", "row_type"), rule_by="block", compared=True,
+    )
+    summaries, block = [], 0
+    for seg in _segmenters(groups):
+        ours = [g for g in groups if g[1] == seg and next(iter(groups[g].values()))["labels"]["kind"] == "method"]
+        ablations = sorted((g for g in groups if g[1] == seg and g not in ours),
+                           key=lambda g: (_ablation_letter(next(iter(groups[g].values()))) or "z", g[0]))
+        if not ablations:
+            continue
+        if not ours:
+            notes.append(f"No full-method record for segmenter {seg}: its ablations are not compared.")
+            continue
+        if len(ours) > 1:
+            notes.append(f"Several method rows for segmenter {seg}; the ablations are compared with {_who(ours[0])}.")
+        o = ours[0]
+        blocks: dict[frozenset, list] = {}
+        for g in ablations:
+            runs = frozenset(groups[g]) & frozenset(groups[o])
+            for run in sorted(set(groups[g]) - runs):
+                notes.append(f"{_who(g)} at {_run_text(run)} is left out: {_who(o)} has no metrics there.")
+            if runs:
+                blocks.setdefault(runs, []).append(g)
+        for runs, members in blocks.items():
+            block += 1
+            runs = set(runs)
+            rows = {}
+            first_o = next(iter(groups[o].values()))
+            rows[o] = {"block": str(block), "method": o[0], "row": f"Ours ({_name(first_o)})", "segmenter": seg, "kind": "method", "runs": _describe(runs)}
+            rows[o].update(_mean_row(o, groups[o], runs, metrics, notes))
+            for g in members:
+                first = next(iter(groups[g].values()))
+                rows[g] = {"block": str(block), "method": g[0], "row": _ablation_name(first), "segmenter": seg, "kind": "ablation", "runs": ""}
+                rows[g].update(_mean_row(g, groups[g], runs, metrics, notes))
+            _mark_first_places(rows, groups, runs, compared, boot)
+            table.rows += list(rows.values())
+            for g in members:
+                letter = _ablation_letter(next(iter(groups[g].values())))
+                label = f"{letter})" if letter else rows[g]["row"]
+                row = {"block": str(block), "method": g[0], "row": f"Δ {label} − Ours", "segmenter": seg, "kind": "difference", "runs": ""}
+                row.update(_difference_row(groups[g], groups[o], runs, compared, boot))
+                table.rows.append(row)
+                summaries.append(f"{rows[g]['row']} ({seg}; {_describe(runs)}): {_verdicts(row, compared)}.")
+    if table.rows:
+        notes[0:0] = _stats_notes({r for g in groups.values() for r in g}, boot) + [
+            "Each block compares the full method with the ablations on the runs they share; in a Δ row worse / better means the "
+            "method with that switch off is worse / better than with it."]
+    notes += summaries
     return table
+
+
+def per_scene_table(records: list[dict]) -> Table:
+    notes: list[str] = []
+    table = Table(
+        "per_scene", "Per-scene results of every run (scene, method, seed)",
+        labels=[("scene", "Scene"), ("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter"), ("kind", "Kind"), ("seed", "Seed")],
+        columns=[Column(m, *METRIC_COLUMNS[m]) for m in METRIC_COLUMNS],
+        notes=notes, rule_by="scene", csv_only=("method",), note_column="note",
+    )
+    first: dict[tuple[str, str], int] = {}
+    for i, r in enumerate(records):
+        first.setdefault(_key(r), i)
+    order = sorted(range(len(records)), key=lambda i: (records[i]["labels"]["scene"], KIND_ORDER[records[i]["labels"]["kind"]],
+                                                       first[_key(records[i])], _seed_order(records[i]["labels"].get("seed", "")), i))
+    reasons: dict[tuple[str, str], list[str]] = {}
+    for i in order:
+        r = records[i]
+        lab = r["labels"]
+        row = {"scene": lab["scene"], "method": lab["method"], "name": _name(r), "segmenter": lab["segmenter"], "kind": lab["kind"],
+               "seed": lab.get("seed", ""), "note": r.get("skip_reason") or ""}
+        row.update({m: r["metrics"][m] for m in METRIC_COLUMNS})
+        table.rows.append(row)
+        if not r.get("skip_reason"):
+            for m in METRIC_COLUMNS:
+                if r["metrics"][m] is None:
+                    reasons.setdefault((m, r.get("null_reasons", {}).get(m) or "no reason recorded"), []).append(f"{_run_text(_run(r))} {_who(_key(r))}")
+    skipped = [r for r in records if r.get("skip_reason")]
+    if skipped:
+        notes.append(f"{len(skipped)} run(s) have no metrics (reason in the note column) and are left out of every average.")
+    for (m, why), where in reasons.items():
+        notes.append(f"{METRIC_COLUMNS[m][0]} is null in {len(where)} run(s) ({why}): {', '.join(where[:3])}{', ...' if len(where) > 3 else '.'}")
+    notes.append("One row per run, nothing marked: a single run carries no interval (the averages and their intervals are in table1_average "
+                 "and table3_ablation). AMCR = the run's own removal masks at the test cameras (paper supp. Eq. 1); unseen share = the "
+                 "ground-truth unseen masks' coverage of the test views.")
+    return table
+
+
+# --- runtime ---------------------------------------------------------------------------------
 
 
 def _stages(records: list[dict]) -> list[str]:
@@ -431,22 +610,22 @@ def _runtime_row(key, recs: list[dict], stages: list[str], has_stage: dict[str, 
             if s not in NOT_IN_TOTAL:
                 total_ok = False
             if notes is not None and recs:
-                lacking = [r["labels"]["scene"] for r in recs if s not in r["stages"]]
-                notes.append(f"Stage {s} of {_who(key)} is not averaged: no benchmark for scene(s) {', '.join(lacking)}.")
+                lacking = [_run_text(_run(r)) for r in recs if s not in r["stages"]]
+                notes.append(f"Stage {s} of {_who(key)} is not averaged: no benchmark for {', '.join(lacking)}.")
     row["total_min"] = total if total_ok else None
     storage = [r["model"]["storage_mb"] for r in recs if r.get("model")]
     row["storage_mb"] = sum(storage) / len(storage) if recs and len(storage) == len(recs) else None
     if notes is not None and recs and len(storage) != len(recs):
         notes.append(f"Storage of {_who(key)} is not averaged: no model files recorded for "
-                     f"{', '.join(r['labels']['scene'] for r in recs if not r.get('model'))}.")
+                     f"{', '.join(_run_text(_run(r)) for r in recs if not r.get('model'))}.")
     rss = [st["max_rss_mb"] for r in recs for st in r["stages"].values() if st.get("max_rss_mb") is not None]
     row["peak_rss_mb"] = max(rss) if rss else None
     return row
 
 
 def _runtime_columns(stages: list[str]) -> list[Column]:
-    return [*(Column(f"{s}_min", f"{s} (min)", LOWER, ".2f") for s in stages), Column("total_min", "total (min)", LOWER, ".2f"),
-            Column("storage_mb", "storage (MB)", LOWER, ".1f"), Column("peak_rss_mb", "peak RSS (MB)", LOWER, ".0f")]
+    return [*(Column(f"{s}_min", f"{s} (min)", NONE, ".2f") for s in stages), Column("total_min", "total (min)", NONE, ".2f"),
+            Column("storage_mb", "storage (MB)", NONE, ".1f"), Column("peak_rss_mb", "peak RSS (MB)", NONE, ".0f")]
 
 
 def _runtime_setup(records: list[dict], notes: list[str]):
@@ -454,12 +633,12 @@ def _runtime_setup(records: list[dict], notes: list[str]):
     without: dict[tuple[str, str], list[str]] = {}
     for r in records:
         if r["labels"]["kind"] in kinds and not r.get("stages"):
-            without.setdefault(_key(r), []).append(r["labels"]["scene"])
-    for g, scenes in without.items():
-        notes.append(f"{_who(g)} has no stage benchmarks for scene(s) {', '.join(sorted(scenes))}; left out.")
+            without.setdefault(_key(r), []).append(_run_text(_run(r)))
+    for g, runs in without.items():
+        notes.append(f"{_who(g)} has no stage benchmarks for {'scene(s) ' if all('(' not in x for x in runs) else ''}{', '.join(sorted(runs))}; left out.")
     recs = [r for r in records if r["labels"]["kind"] in kinds and r.get("stages")]
     groups = _groups(recs, kinds)
-    common = _common_scenes(groups, "stage benchmarks", notes)
+    common = _common_runs(groups, "stage benchmarks", notes)
     stages = _stages(recs)
     return groups, common, stages
 
@@ -468,23 +647,26 @@ def _runtime_notes(stages: list[str]) -> list[str]:
     counted = [s for s in stages if s not in NOT_IN_TOTAL]
     return [f"Minutes are Snakemake benchmark wall times (mean over repeats); total = {' + '.join(counted) or 'nothing'}"
             f"{' (evaluation is not part of a method' + chr(39) + 's cost)' if any(s in NOT_IN_TOTAL for s in stages) else ''}.",
-            "Storage = size of the model PLY files in MB (10^6 bytes); peak RSS = largest max RSS of any stage (MB)."]
+            "A stage shared by several runs (3DGS: one per scene for every seed) counts in each of them.",
+            "Storage = size of the model PLY files in MB (10^6 bytes); peak RSS = largest max RSS of any stage (MB).",
+            "No marks: one timing per run, on a shared machine."]
 
 
 def table2(records: list[dict]) -> Table:
     notes: list[str] = []
     groups, common, stages = _runtime_setup(records, notes)
-    table = Table("table2_runtime", "Runtime and model size per method, averaged over scenes (paper Tab. 2)",
+    table = Table("table2_runtime", "Runtime and model size per method, averaged over runs (paper Tab. 2)",
                   labels=[("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter"), ("kind", "Kind")],
-                  columns=[Column("n_scenes", "scenes"), *_runtime_columns(stages)], notes=notes, csv_only=("method",))
+                  columns=[Column("n_runs", "runs", fmt="d"), *_runtime_columns(stages)], notes=notes, csv_only=("method",))
     for g, rs in groups.items():
-        used = [r for r in rs if r["labels"]["scene"] in common]
-        has = {s: any(s in r["stages"] for r in rs) for s in stages}
-        row = {"method": g[0], "name": _name(rs[0]), "segmenter": g[1], "kind": rs[0]["labels"]["kind"], "n_scenes": len(used)}
+        used = [rs[r] for r in sorted(common) if r in rs]
+        first = next(iter(rs.values()))
+        has = {s: any(s in r["stages"] for r in rs.values()) for s in stages}
+        row = {"method": g[0], "name": _name(first), "segmenter": g[1], "kind": first["labels"]["kind"], "n_runs": len(used)}
         row.update(_runtime_row(g, used, stages, has, notes))
         table.rows.append(row)
     if common:
-        notes.insert(0, f"Averaged over {len(common)} scene(s): {', '.join(sorted(common))}.")
+        notes.insert(0, f"Averaged over {len(common)} run(s): {_describe(common)}.")
     notes.extend(_runtime_notes(stages))
     return table
 
@@ -492,19 +674,23 @@ def table2(records: list[dict]) -> Table:
 def table2_detail(records: list[dict]) -> Table:
     notes: list[str] = []
     groups, common, stages = _runtime_setup(records, notes)
-    table = Table("table2_runtime_detail", "Runtime of every stage per scene and its average per method (paper supp. Detailed Runtime)",
+    table = Table("table2_runtime_detail", "Runtime of every stage per scene (mean over its seeds) and its average per method (paper supp. Detailed Runtime)",
                   labels=[("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter"), ("scene", "Scene")],
-                  columns=_runtime_columns(stages), notes=notes, csv_only=("method",), rule_by="method", note_column="note",
-                  marked=False)
+                  columns=[Column("n_runs", "runs", fmt="d"), *_runtime_columns(stages)], notes=notes, csv_only=("method",), rule_by="method",
+                  note_column="note")
     for g, rs in groups.items():
-        has = {s: any(s in r["stages"] for r in rs) for s in stages}
-        base = {"method": g[0], "name": _name(rs[0]), "segmenter": g[1]}
-        for r in sorted(rs, key=lambda r: r["labels"]["scene"]):
-            row = {**base, "scene": r["labels"]["scene"], "note": "" if r["labels"]["scene"] in common else "not in the average"}
-            row.update(_runtime_row(g, [r], stages, has, None))
+        first = next(iter(rs.values()))
+        has = {s: any(s in r["stages"] for r in rs.values()) for s in stages}
+        base = {"method": g[0], "name": _name(first), "segmenter": g[1]}
+        for scene in sorted({run[0] for run in rs}):
+            runs = [run for run in rs if run[0] == scene]
+            left = [run for run in runs if run not in common]
+            note = "" if not left else "not in the average" if len(left) == len(runs) else f"{len(left)} of {len(runs)} run(s) not in the average"
+            row = {**base, "scene": scene, "n_runs": len(runs), "note": note}
+            row.update(_runtime_row(g, [rs[run] for run in runs], stages, has, None))
             table.rows.append(row)
-        used = [r for r in rs if r["labels"]["scene"] in common]
-        row = {**base, "scene": "average", "note": f"over {len(used)} scene(s)"}
+        used = [rs[r] for r in sorted(common) if r in rs]
+        row = {**base, "scene": "average", "n_runs": len(used), "note": f"over {len(used)} run(s)"}
         row.update(_runtime_row(g, used, stages, has, notes))
         table.rows.append(row)
     notes.extend(_runtime_notes(stages))
@@ -560,7 +746,7 @@ def read_config(path: str | Path | None) -> dict | None:
     return {"path": str(p), "sha256": hashlib.sha256(text.encode()).hexdigest(), "content": text, "parsed": parsed}
 
 
-def provenance(records: list[dict], config: dict | None, seeds: list[int] | None, outputs: list[str]) -> dict:
+def provenance(records: list[dict], config: dict | None, seeds: list[int] | None, outputs: list[str], boot: Bootstrap = Bootstrap()) -> dict:
     weights: dict[tuple[str, str], dict] = {}
     for r in records:
         for name, info in (r.get("weights") or {}).items():
@@ -569,6 +755,9 @@ def provenance(records: list[dict], config: dict | None, seeds: list[int] | None
             k = (Path(info.get("path", "")).name, info["sha256"])
             weights.setdefault(k, {"name": name, "file": k[0], "sha256": k[1], "records": 0})["records"] += 1
     seeds_source = "--seeds" if seeds else None
+    labelled = sorted({int(r["labels"]["seed"]) for r in records if "seed" in r["labels"]})
+    if not seeds and labelled:
+        seeds, seeds_source = labelled, "record seed labels"
     if not seeds and config and isinstance(config.get("parsed"), dict) and "seed" in config["parsed"]:
         seeds, seeds_source = [config["parsed"]["seed"]], "config seed"
     return {
@@ -577,6 +766,8 @@ def provenance(records: list[dict], config: dict | None, seeds: list[int] | None
         "config": None if config is None else {k: config[k] for k in ("path", "sha256", "content")},
         "seeds": seeds or None,
         "seeds_source": seeds_source,
+        "bootstrap": {"method": "percentile at the expanded level (report/stats.py), paired over (scene, seed) runs (scipy.stats.bootstrap)",
+                      "min_pairs": stats.MIN_PAIRS, **boot.kw()},
         "packages": _versions(),
         "machine": _machine(),
         "weights": sorted(weights.values(), key=lambda w: (w["name"], w["file"])),
@@ -585,6 +776,7 @@ def provenance(records: list[dict], config: dict | None, seeds: list[int] | None
     }
 
 
+COMPARED = ("table1_average", "table3_ablation")  # built with the bootstrap settings
 TABLES = (("per_scene", per_scene_table), ("table1_average", table1), ("table3_ablation", table3),
           ("table2_runtime", table2), ("table2_runtime_detail", table2_detail))
 
@@ -605,13 +797,24 @@ def views_sweep(records: list[dict]) -> Table | None:
         if not str(v).isdigit():
             raise InputError(f"a sweep record needs a virtual_views label (a positive integer), got {v!r}", r.get("_path", "record"))
     notes: list[str] = []
-    table, _ = _average_table("views_sweep", "Number of virtual views L (supplementary)", [{**r, "labels": {**r["labels"], "kind": "sweep"}} for r in recs], ("sweep",), notes)
-    views = {r["labels"]["method"]: int(r["labels"]["virtual_views"]) for r in recs}
-    table.labels.insert(0, ("virtual_views", "L"))
-    for row in table.rows:
-        row["virtual_views"] = str(views[row["method"]])
+    recs = _without_metrics([{**r, "labels": {**r["labels"], "kind": "sweep"}} for r in recs], ("sweep",), notes)
+    groups = _groups(recs, ("sweep",))
+    common = _common_runs(groups, "metrics", notes)
+    fid = _fid_column([g[r] for g in groups.values() for r in common], notes)
+    metrics = (*AVERAGE_METRICS, fid)
+    table = Table("views_sweep", "Number of virtual views L (supplementary)",
+                  labels=[("virtual_views", "L"), ("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter")],
+                  columns=[Column("n_runs", "runs", fmt="d"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)], notes=notes,
+                  csv_only=("method",))
+    for g, rs in groups.items():
+        first = next(iter(rs.values()))
+        row = {"virtual_views": str(int(first["labels"]["virtual_views"])), "method": g[0], "name": _name(first), "segmenter": g[1]}
+        row.update(_mean_row(g, rs, common, metrics, notes))
+        table.rows.append(row)
     table.rows.sort(key=lambda row: int(row["virtual_views"]))
-    table.marked = False
+    if common:
+        notes.insert(0, f"Averaged over {len(common)} run(s): {_describe(common)}; ± = standard deviation over seeds of the average over scenes. "
+                        "Not compared (no intervals, no marks).")
     return table
 
 
@@ -642,13 +845,13 @@ def sweep_plot(table: Table) -> bytes:
 
 
 def paper_tables(record_paths: list[str | Path], out_dir: str | Path, *, config: str | Path | None = None,
-                 seeds: list[int] | None = None) -> dict[str, Table]:
+                 seeds: list[int] | None = None, boot: Bootstrap = Bootstrap()) -> dict[str, Table]:
     """Read the records, build every table and write them into ``out_dir`` (see the module docstring).
 
     Everything is read, checked and rendered before the first file is written."""
     records = load_records(list(record_paths))
     cfg = read_config(config)
-    tables = {name: build(records) for name, build in TABLES}
+    tables = {name: build(records, boot) if name in COMPARED else build(records) for name, build in TABLES}
     files: dict[str, str] = {}
     footer = f"Provenance: {provenance_line()}; inputs and versions in provenance.json."
     for name, t in tables.items():
@@ -663,7 +866,7 @@ def paper_tables(record_paths: list[str | Path], out_dir: str | Path, *, config:
         files["views_sweep.md"] = to_markdown(sweep, footer)
         files["views_sweep.tex"] = to_latex(sweep)
         blobs["views_sweep.png"] = sweep_plot(sweep)
-    files["provenance.json"] = json.dumps(provenance(records, cfg, seeds, list(files)), indent=1, allow_nan=False, default=str) + "\n"
+    files["provenance.json"] = json.dumps(provenance(records, cfg, seeds, list(files), boot), indent=1, allow_nan=False, default=str) + "\n"
     out = Path(out_dir)
     for fname, text in files.items():
         write_text(out / fname, text)

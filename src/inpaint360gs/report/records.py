@@ -4,11 +4,15 @@
 A record holds
 
 - ``labels``: ``scene``, ``method``, ``segmenter`` (required), ``kind`` (``method``, ``baseline`` or
-  ``ablation``; default ``method``) and any other ``key=value`` (``name``: the row's display name;
-  ``ablation``: the letter of paper Tab. 3);
+  ``ablation``; default ``method``), ``seed`` (the seed of every stage after 3DGS, a non-negative
+  integer; one record per scene, method, segmenter and seed) and any other ``key=value`` (``name``:
+  the row's display name; ``ablation``: the letter of paper Tab. 3);
 - ``metrics``: the evaluation means of ``inpaint360gs evaluate`` (full, ``masked_*``, ``roi_*``; paper
-  Sec. 4 "Metrics") and its scene metrics (``fid``, ``fd_vgg16``, ``kid_vgg16``, ``amcr``), each a
-  finite number or null; ``null_reasons`` says why each null is null;
+  Sec. 4 "Metrics") and its scene metrics (``fid``, ``fd_vgg16``, ``kid_vgg16``, ``unseen_share``: the
+  ground-truth unseen masks' coverage of the test views, ``amcr``: paper supp. Eq. 1 on the run's own
+  removal masks at the test cameras, ``roi_depth_off``: the share of the unseen region the run's model
+  leaves empty or puts off the true surface), each a finite number or null; ``null_reasons`` says why
+  each null is null;
 - ``skip_reason``: set (and every metric null) for a scene without ground truth, which has no evaluation;
 - ``stages``: per stage, wall seconds (mean over the repeats of a Snakemake ``benchmark:`` file),
   max RSS in MB (max over the repeats; null where Snakemake wrote ``NA``), CPU seconds, repeats;
@@ -18,6 +22,8 @@ A record holds
 
 Every value is checked when a record is written and again when it is read (docs/architecture.md,
 "Reliability"): a bad input is one :class:`~inpaint360gs.core.errors.InputError` naming the file.
+Records of format 1 (before ``unseen_share``) are read with their ``amcr``, which was the unseen
+masks' coverage, as ``unseen_share`` and ``amcr`` null; evaluations without ``unseen_share`` likewise.
 """
 
 from __future__ import annotations
@@ -31,7 +37,8 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import check_readable, sha256_file
 from inpaint360gs.io import provenance
 
-FORMAT = "inpaint360gs-table-record/1"
+FORMAT = "inpaint360gs-table-record/2"
+FORMAT_1 = "inpaint360gs-table-record/1"  # read: its ``amcr`` was the unseen masks' coverage (``unseen_share``)
 KINDS = ("method", "baseline", "ablation", "sweep")  # sweep: the full method at another L (virtual_views label)
 REQUIRED_LABELS = ("scene", "method", "segmenter")
 
@@ -41,10 +48,13 @@ MEAN_METRICS = (
     "masked_psnr", "masked_ssim", "masked_lpips", "masked_lpips_alex",
     "roi_psnr", "roi_ssim", "roi_lpips", "roi_lpips_alex",
 )
-SCENE_METRICS = ("fid", "fd_vgg16", "kid_vgg16", "amcr")
+SCENE_METRICS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off")
+# why ``amcr`` is null in what was written before it was computed on the removal masks
+OLD_AMCR_REASON = "not recorded: this {} is from before AMCR was computed on the removal masks (its 'amcr' was the unseen share)"
 METRICS = MEAN_METRICS + SCENE_METRICS
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+_SEED = re.compile(r"^[0-9]+$")
 
 
 
@@ -111,6 +121,8 @@ def check_labels(labels: object, where: str) -> dict[str, str]:
             raise InputError(f"label {k!r} must be a non-empty string, got {v!r}", where)
     if labels.get("kind") not in KINDS:
         raise InputError(f"label kind must be one of {', '.join(KINDS)}, got {labels.get('kind')!r}", where)
+    if "seed" in labels and not _SEED.match(labels["seed"]):
+        raise InputError(f"label seed must be a non-negative integer, got {labels['seed']!r}", where)
     if "ablation" in labels and labels["ablation"] not in "abcde":
         raise InputError(f"label ablation must be a letter of paper Tab. 3 (a-e), got {labels['ablation']!r}", where)
     return labels
@@ -129,6 +141,9 @@ def read_evaluation(path: str | Path) -> dict:
     mean, scene = data["mean"], data.get("scene_metrics", {})
     if not isinstance(scene, dict):
         raise InputError("'scene_metrics' must be a JSON object", where)
+    old_amcr = "unseen_share" not in scene and "amcr" in scene  # written before the two were told apart
+    if old_amcr:
+        scene = {**scene, "unseen_share": scene["amcr"], "amcr": None}
     if "psnr" not in mean:
         raise InputError("not an evaluation JSON: 'mean' has no 'psnr'", where)
     given_reasons = data.get("null_reasons") if isinstance(data.get("null_reasons"), dict) else {}
@@ -141,7 +156,7 @@ def read_evaluation(path: str | Path) -> dict:
                 continue
             metrics[k] = _number(src[k], where, f"{group}.{k}")
             if metrics[k] is None:
-                reasons[k] = str(known.get(k) or "null in the evaluation, no reason given")
+                reasons[k] = OLD_AMCR_REASON.format("evaluation") if old_amcr and k == "amcr" else str(known.get(k) or "null in the evaluation, no reason given")
     weights = {}
     if not isinstance(data.get("weights") or {}, dict):
         raise InputError("'weights' must be a JSON object", where)
@@ -302,12 +317,20 @@ def check_record(data: object, where: str) -> dict:
     """Validate a record read from ``where``; returns it (with ``_path`` set)."""
     if not isinstance(data, dict):
         raise InputError(f"expected a record (JSON object), found a JSON {type(data).__name__}", where)
-    if data.get("format") != FORMAT:
+    if data.get("format") not in (FORMAT, FORMAT_1):
         raise InputError(f"not a table record (format {data.get('format')!r}, expected {FORMAT!r}; written by inpaint360gs table record)", where)
     check_labels(data.get("labels"), where)
     metrics = data.get("metrics")
     if not isinstance(metrics, dict):
         raise InputError("'metrics' must be a JSON object", where)
+    if data["format"] == FORMAT_1 and "unseen_share" not in metrics:
+        metrics["unseen_share"], metrics["amcr"], metrics["roi_depth_off"] = metrics.get("amcr"), None, None
+        reasons = data.get("null_reasons")
+        if isinstance(reasons, dict):
+            if "amcr" in reasons:
+                reasons["unseen_share"] = reasons.pop("amcr")
+            reasons["amcr"] = data.get("skip_reason") or OLD_AMCR_REASON.format("record")
+            reasons["roi_depth_off"] = data.get("skip_reason") or "not recorded: a record of format 1"
     for k in METRICS:
         if k not in metrics:
             raise InputError(f"metric {k!r} missing", where)
@@ -340,16 +363,17 @@ def check_record(data: object, where: str) -> dict:
 
 
 def load_records(paths: list[str | Path]) -> list[dict]:
-    """Read and check records; two records of the same (scene, method, segmenter) are refused."""
+    """Read and check records; two records of the same (scene, method, segmenter, seed) are refused."""
     if not paths:
         raise InputError("no record files given")
     out, seen = [], {}
     for p in paths:
         rec = check_record(read_json(p, "a table record (inpaint360gs table record)"), str(p))
         lab = rec["labels"]
-        key = (lab["scene"], lab["method"], lab["segmenter"])
+        key = (lab["scene"], lab["method"], lab["segmenter"], lab.get("seed", ""))
         if key in seen:
-            raise InputError(f"scene {key[0]!r}, method {key[1]!r}, segmenter {key[2]!r} appears twice (also in {seen[key]})", p)
+            seed = f", seed {key[3]}" if key[3] else ""
+            raise InputError(f"scene {key[0]!r}, method {key[1]!r}, segmenter {key[2]!r}{seed} appears twice (also in {seen[key]})", p)
         seen[key] = str(p)
         out.append(rec)
     return out
