@@ -421,15 +421,240 @@ class PatchMatchHarmonicInpainter(PatchMatchInpainter):
         return np.clip(pm + low, 0.0, 1.0)
 
 
+# ----------------------------------------------------------------------------------------------
+# shift-map completion from the statistics of patch offsets (He and Sun 2012)
+
+_UNIT = np.array([[-1, 0], [1, 0], [0, -1], [0, 1]])
+
+
+def _boxsum(a, r):
+    """sum of a over [y:y+r, x:x+r] for every top-left (y, x) that fits; a (H, W[, C])."""
+    c = np.zeros((a.shape[0] + 1, a.shape[1] + 1) + a.shape[2:], np.float64)
+    c[1:, 1:] = a
+    c = c.cumsum(0).cumsum(1)
+    return c[r:, r:] - c[:-r, r:] - c[r:, :-r] + c[:-r, :-r]
+
+
+def _dominant_offsets(lab, known, patch, n_labels, stride=2):
+    """The ``n_labels`` dominant offsets (dy, dx) of the known patches' nearest neighbours at least
+    ``max(patch, max(H, W) / 15)`` away (peaks of the smoothed, symmetrised offset histogram),
+    or None when there are too few known patches."""
+    from scipy.ndimage import gaussian_filter, maximum_filter
+    from scipy.spatial import cKDTree
+
+    h, w = known.shape
+    if h <= patch or w <= patch:
+        return None
+    ok = _boxsum(known.astype(np.float64), patch) == patch * patch  # (h-p+1, w-p+1): patch fully known
+    ys, xs = np.nonzero(ok)
+    if ys.size < 16:
+        return None
+    half = patch // 2
+    lc = _boxsum(lab[..., :1], 2) / 4.0
+    abc = _boxsum(lab[..., 1:], half) / float(half * half)
+    feats = [lc[ys + 2 * i, xs + 2 * j] for i in range(half) for j in range(half)]
+    feats += [abc[ys + half * i, xs + half * j] for i in range(2) for j in range(2)]
+    f = np.concatenate(feats, axis=1)
+    tau = max(float(patch), max(h, w) / 15.0)
+    q = np.nonzero((ys % stride == 0) & (xs % stride == 0))[0]
+    tree = cKDTree(f)
+    pos = np.stack([ys, xs], 1)
+    off = np.zeros((q.size, 2), np.int64)
+    found = np.zeros(q.size, bool)
+    todo = np.arange(q.size)
+    for k in (16, 128):
+        k = min(k, ys.size)
+        _, nb = tree.query(f[q[todo]], k=k, workers=1)
+        nb = nb.reshape(todo.size, k)
+        d = pos[nb] - pos[q[todo]][:, None, :]
+        far = (d[..., 0] ** 2 + d[..., 1] ** 2) > tau * tau
+        first = np.argmax(far, axis=1)
+        has = far[np.arange(todo.size), first]
+        off[todo[has]] = d[np.arange(todo.size), first][has]
+        found[todo[has]] = True
+        todo = todo[~has]
+        if todo.size == 0:
+            break
+    off = off[found]
+    if off.shape[0] < 8:
+        return None
+    hist = np.zeros((2 * h - 1, 2 * w - 1))
+    np.add.at(hist, (off[:, 0] + h - 1, off[:, 1] + w - 1), 1.0)
+    np.add.at(hist, (-off[:, 0] + h - 1, -off[:, 1] + w - 1), 1.0)
+    hs = gaussian_filter(hist, np.sqrt(2.0), mode="constant")
+    peak = (hs == maximum_filter(hs, size=3, mode="constant")) & (hs > 0)
+    dy, dx = np.nonzero(peak)
+    dy, dx = dy - (h - 1), dx - (w - 1)
+    keep = dy * dy + dx * dx > tau * tau
+    dy, dx, v = dy[keep], dx[keep], hs[peak][keep]
+    order = np.lexsort((dx, dy, -v))[:n_labels]
+    if order.size < 2:
+        return None
+    return np.stack([dy[order], dx[order]], 1)
+
+
+def _refine_offsets(lab, known, offs, r):
+    """each offset moved within +-r to the one with the least mean squared difference between the
+    known image and its shifted copy (where both are known); duplicates dropped, order kept."""
+    h, w = known.shape
+    out = []
+    for dy, dx in offs:
+        best = None
+        for ey in range(-r, r + 1):
+            for ex in range(-r, r + 1):
+                oy, ox = dy + ey, dx + ex
+                ys0, ys1 = max(0, -oy), min(h, h - oy)
+                xs0, xs1 = max(0, -ox), min(w, w - ox)
+                if ys1 - ys0 < 2 or xs1 - xs0 < 2:
+                    continue
+                a, b = lab[ys0:ys1:2, xs0:xs1:2], lab[ys0 + oy:ys1 + oy:2, xs0 + ox:xs1 + ox:2]
+                m = known[ys0:ys1:2, xs0:xs1:2] & known[ys0 + oy:ys1 + oy:2, xs0 + ox:xs1 + ox:2]
+                c = m.sum()
+                if c == 0:
+                    continue
+                e = ((a - b) ** 2).sum(-1)[m].sum() / c
+                if best is None or e < best[0]:
+                    best = (e, oy, ox)
+        if best is not None and (best[1], best[2]) not in out:
+            out.append((best[1], best[2]))
+    return np.array(out, np.int64) if len(out) >= 2 else None
+
+
+def _shift_labels(lab, known, offsets, sweeps=4, miss=300.0, wr=3, wwin=4.0):
+    """Shift-map labelling of the hole (``~known``): each hole pixel takes one of ``offsets`` (or, only
+    where none is allowed, a unit step) whose source is known or lies in an earlier layer of the
+    hole (L1 distance to the known region), so copies chain inward without cycles. Greedy layer by
+    layer from the border inward (window agreement + seam cost), then ICM sweeps on the seam cost
+    (red-black order). Returns, for every pixel, the flat index of the known pixel it copies."""
+    h, w = known.shape
+    labs = np.concatenate([offsets, _UNIT])
+    K = labs.shape[0]
+    penalty = np.zeros(K)
+    penalty[len(offsets):] = 1e7
+    hole = ~known
+    layer = cv2.distanceTransform(hole.astype(np.uint8), cv2.DIST_L1, 3).astype(np.int64)
+    layer[known] = 0
+    py, px = np.nonzero(hole)
+    order = np.lexsort((px, py, layer[py, px]))
+    py, px = py[order], px[order]
+    n = py.size
+    pl = layer[py, px]
+    flat = lab.reshape(-1, 3)
+    # sources, validity
+    sy = py[:, None] + labs[None, :, 0]
+    sx = px[:, None] + labs[None, :, 1]
+    inb = (sy >= 0) & (sy < h) & (sx >= 0) & (sx < w)
+    syc, sxc = np.clip(sy, 0, h - 1), np.clip(sx, 0, w - 1)
+    valid = inb & (layer[syc, sxc] < pl[:, None])
+    sidx = syc * w + sxc
+    base = np.repeat(penalty[None, :], n, axis=0)
+    base[~valid] = np.inf
+    # index of each hole pixel in the list
+    hidx = -np.ones(h * w, np.int64)
+    hidx[py * w + px] = np.arange(n)
+    S = np.arange(h * w)  # source (known pixel) each pixel copies
+    assigned = known.reshape(-1).copy()
+    lbl = -np.ones(n, np.int64)
+    bounds = np.searchsorted(pl, np.arange(pl.max() + 2))
+
+    def cost(sel):
+        """costs (len(sel), K) for hole pixels sel, with the current S / assigned."""
+        c = base[sel].copy()
+        yy, xx = py[sel], px[sel]
+        Fa = flat[S[sidx[sel]]]  # (m, K, 3)
+        for dy_, dx_ in _UNIT:
+            qy, qx = yy + dy_, xx + dx_
+            qin = (qy >= 0) & (qy < h) & (qx >= 0) & (qx < w)
+            qyc, qxc = np.clip(qy, 0, h - 1), np.clip(qx, 0, w - 1)
+            q = qyc * w + qxc
+            qa = assigned[q] & qin
+            if not qa.any():
+                continue
+            # term 2: F(q + a) vs F(q)
+            ty, tx = qyc[:, None] + labs[None, :, 0], qxc[:, None] + labs[None, :, 1]
+            tin = (ty >= 0) & (ty < h) & (tx >= 0) & (tx < w)
+            t = np.clip(ty, 0, h - 1) * w + np.clip(tx, 0, w - 1)
+            tok = tin & assigned[t]
+            d2 = ((flat[S[t]] - flat[S[q]][:, None, :]) ** 2).sum(-1)
+            c += np.where(qa[:, None], np.where(tok, d2, miss), 0.0)
+            # term 1: F(p + a) vs F(p + b), b = label of q (hole q only)
+            qh = qa & ~known.reshape(-1)[q]
+            if qh.any():
+                b = np.where(qh, lbl[np.maximum(hidx[q], 0)], 0)
+                b = np.maximum(b, 0)
+                by, bx = yy + labs[b, 0], xx + labs[b, 1]
+                bin_ = (by >= 0) & (by < h) & (bx >= 0) & (bx < w)
+                bi = np.clip(by, 0, h - 1) * w + np.clip(bx, 0, w - 1)
+                bok = qh & bin_ & assigned[bi]
+                d1 = ((Fa - flat[S[bi]][:, None, :]) ** 2).sum(-1)
+                c += np.where(bok[:, None], d1, 0.0)
+        return c
+
+    rr = wr
+    dys, dxs = np.mgrid[-rr:rr + 1, -rr:rr + 1]
+    dys, dxs = dys.ravel(), dxs.ravel()
+
+    def wincost(sel):
+        yy, xx = py[sel], px[sel]
+        wy, wx = yy[:, None] + dys[None], xx[:, None] + dxs[None]  # (m, W)
+        win_ = (wy >= 0) & (wy < h) & (wx >= 0) & (wx < w)
+        wi = np.clip(wy, 0, h - 1) * w + np.clip(wx, 0, w - 1)
+        wok = win_ & assigned[wi]
+        Fw = flat[S[wi]]  # (m, W, 3)
+        ty = wy[:, None, :] + labs[None, :, 0, None]
+        tx = wx[:, None, :] + labs[None, :, 1, None]  # (m, K, W)
+        tin = (ty >= 0) & (ty < h) & (tx >= 0) & (tx < w)
+        ti = np.clip(ty, 0, h - 1) * w + np.clip(tx, 0, w - 1)
+        ok = wok[:, None, :] & tin & assigned[ti]
+        d = ((flat[S[ti]] - Fw[:, None]) ** 2).sum(-1)
+        cnt = ok.sum(-1)
+        return np.where(cnt > 0, (d * ok).sum(-1) / np.maximum(cnt, 1), miss)
+
+    for L in range(1, pl.max() + 1):
+        sel = np.arange(bounds[L], bounds[L + 1])
+        if sel.size == 0:
+            continue
+        c = cost(sel) + wwin * wincost(sel)
+        lbl[sel] = np.argmin(c, axis=1)
+        S[py[sel] * w + px[sel]] = S[sidx[sel, lbl[sel]]]
+        assigned[py[sel] * w + px[sel]] = True
+
+    def propagate():
+        for L in range(1, pl.max() + 1):
+            sel = np.arange(bounds[L], bounds[L + 1])
+            S[py[sel] * w + px[sel]] = S[sidx[sel, lbl[sel]]]
+
+    par = (py + px) % 2
+    for _ in range(sweeps):
+        changed = 0
+        for colour in (0, 1):
+            sel = np.nonzero(par == colour)[0]
+            c = cost(sel)
+            cur = c[np.arange(sel.size), lbl[sel]]
+            new = np.argmin(c, axis=1)
+            better = c[np.arange(sel.size), new] < cur
+            changed += better.sum()
+            lbl[sel[better]] = new[better]
+            propagate()
+        if changed == 0:
+            break
+    return S
+
+
 @dataclass
 class ShiftMapInpainter(Inpainter):
-    """Shift-map completion from the statistics of patch offsets (He and Sun 2012), OpenCV's
-    ``xphoto.inpaint(..., INPAINT_SHIFTMAP)``, on 8-bit CIELab: the fill is made of copies of the
-    known image shifted by its few dominant self-similarity offsets, so stationary textures and
-    straight structures (stripes, a border) continue across the hole. The offsets are gathered
-    from the hole's bounding box grown by ``context`` x its size on every side (0: the whole image):
-    the statistics of the surface around the hole, not of the rest of the picture. Deterministic;
-    colour only."""
+    """Shift-map completion from the statistics of patch offsets (He and Sun, "Statistics of Patch
+    Offsets for Image Completion", ECCV 2012), in numpy/scipy: the nearest neighbours of the known
+    8x8 patches (8-bit CIELab, a k-d tree on pooled patch features) give an offset histogram whose
+    ``n_labels`` dominant peaks are the labels; every hole pixel copies the known pixel at one of
+    these offsets (chained inward through already filled pixels), chosen by a greedy border-inward
+    pass and ICM sweeps on the shift-map seam cost, so stationary textures and straight structures
+    (stripes, a border) continue across the hole. The offsets are gathered from the hole's bounding
+    box grown by ``context`` x its size on every side (0: the whole image). Copies the input's own
+    colours (no quantisation). With too few known patches for statistics it falls back to
+    ``cv2.inpaint`` TELEA (as ``telea``). Deterministic (no randomness, single-threaded k-d tree
+    queries); colour only. Replaces OpenCV's ``xphoto`` SHIFTMAP, whose output varies between
+    processes."""
 
     name: ClassVar[str] = "shiftmap"
     supports_depth: ClassVar[bool] = False
@@ -447,12 +672,27 @@ class ShiftMapInpainter(Inpainter):
         return self._shiftmap(img, mask)
 
     @staticmethod
-    def _shiftmap(img, mask):
+    def _shiftmap(img, mask, patch=8, n_labels=40):
+        h, w = mask.shape
         rgb8 = np.clip(np.round(img * 255.0), 0, 255).astype(np.uint8)
-        lab = cv2.cvtColor(rgb8, cv2.COLOR_RGB2Lab)
-        out = np.zeros_like(lab)
-        cv2.xphoto.inpaint(lab, (~mask).astype(np.uint8) * 255, out, cv2.xphoto.INPAINT_SHIFTMAP)  # its mask: 255 = known
-        return cv2.cvtColor(out, cv2.COLOR_Lab2RGB).astype(np.float64) / 255.0
+        lab = cv2.cvtColor(rgb8, cv2.COLOR_RGB2Lab).astype(np.float64)
+        known = ~mask
+        f = 1  # offset statistics at a scale of <= 160 pixels, offsets refined at full scale
+        while max(h, w) // f > 160:
+            f *= 2
+        if f > 1:
+            hc, wc = h // f, w // f
+            labc = lab[: hc * f, : wc * f].reshape(hc, f, wc, f, 3).mean(axis=(1, 3))
+            knc = known[: hc * f, : wc * f].reshape(hc, f, wc, f).all(axis=(1, 3))
+            offs = _dominant_offsets(labc, knc, patch, n_labels)
+            if offs is not None:
+                offs = _refine_offsets(lab, known, offs * f, f // 2)
+        else:
+            offs = _dominant_offsets(lab, known, patch, n_labels)
+        if offs is None:
+            return _cv_fill(img, mask, cv2.INPAINT_TELEA, 3.0)
+        src = _shift_labels(lab, known, offs)
+        return img.reshape(-1, 3)[src].reshape(img.shape)
 
 
 @dataclass
