@@ -46,6 +46,7 @@ include: "workflow/rules/reconstruct.smk"
 include: "workflow/rules/object_field.smk"
 include: "workflow/rules/inpaint.smk"
 include: "workflow/rules/evaluate.smk"
+include: "workflow/rules/capture.smk"
 
 
 rule all:

@@ -193,3 +193,19 @@ def test_default_benchmark_is_the_test_suite_at_three_seeds_with_ablations_where
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/teapot-dev2/" in line} == {"full", "abl_a"}
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/duck-dev1-sparse/" in line} == {"full", "abl_c"}
     assert sum("/methods/abl_" in line for line in lines) == 4
+
+
+def test_the_kitchen_config_builds_runs_and_scores_a_capture(tmp_path):
+    """workflow/config/kitchen.yaml plans the real-capture path alone: the photos to a scene folder
+    at the SfM working size, `inpaint360gs run` at the click and resize, the no-ground-truth scores
+    and figure; no synthetic scene and no table."""
+    cmd = [sys.executable, "-m", "snakemake", "-n", "-p", "--cores", "1", "--directory", str(ROOT), "--snakefile", str(ROOT / "Snakefile"),
+           "--configfile", str(ROOT / "workflow" / "config" / "kitchen.yaml"), "--config", f"out_dir={tmp_path}/out", f"results_dir={tmp_path}/results"]
+    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    assert {r: _count(out, r) for r in ("build_capture", "run_capture", "capture_scores", "synth_scene", "train_3dgs", "paper_tables")} == {
+        "build_capture": 1, "run_capture": 1, "capture_scores": 1, "synth_scene": 0, "train_3dgs": 0, "paper_tables": 0}
+    assert "--sfm-max-size 800 --downscale 4" in out
+    assert "--click IMG_12.png:856,360 --resize 4 --preset cpu" in out
+    assert f"{tmp_path}/results/captures/kitchen_removal.jpg" in out

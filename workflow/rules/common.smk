@@ -238,6 +238,7 @@ def all_targets():
     targets = [f"{scene_dir(s)}/scene.json" for s in SCENES]
     if TRAIN_SCENES:
         targets.append(f"{RESULTS}/3dgs_reconstruction.md")
-    if config["methods"]:
+    if config["methods"] and SCENES:
         targets.append(f"{RESULTS}/table1_average.md")
+    targets += [f"{RESULTS}/captures/{c}_scores.json" for c in config.get("captures", {})]
     return targets
