@@ -1,5 +1,5 @@
 """CI: every table the workflow wrote is complete (one row per expected run, no empty cell where a
-metric is due) and finite, and the compared tables carry what README "Tables of the paper" promises:
+metric is due) and finite, and the compared tables carry what docs/guide.md, "Tables of the paper", promises:
 a seed spread on every mean, a paired bootstrap interval and a verdict on every difference, AMCR on
 the runs' own removal masks next to the unseen share, and no "best" without an interval excluding 0.
 Usage: python .ci/check_tables.py RESULTS_DIR N_RUNS"""

@@ -1,4 +1,4 @@
-"""Dataset building through COLMAP on the synthetic benchmark (the numbers of the README's dataset-building table).
+"""Dataset building through COLMAP on the synthetic benchmark (the numbers of results/README.md's dataset-building table).
 
 For each scene: render it with the generator, export the captures as plain photos (no poses), run
 ``build`` (joint pycolmap SfM, one shared camera, undistortion, leak removal) and score the result

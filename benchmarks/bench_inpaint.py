@@ -10,7 +10,7 @@ method is missing are listed and left out of every average (all averages cover t
 Printed:
 
 * per scene and on average: ``roi_psnr``, ``roi_lpips``, ``masked_psnr``, ``masked_lpips`` (and
-  full-image PSNR/LPIPS) of every method (metric conventions: README "Metrics");
+  full-image PSNR/LPIPS) of every method (metric conventions: docs/guide.md, "Metrics");
 * checks: the full method beats (i) ``removal_only`` and (ii) ``per_view_2d`` on average on each of
   the four; each of ``abl_b`` .. ``abl_e`` is worse than ``full`` on average in ``roi_lpips`` or
   ``roi_psnr`` (``abl_a`` changes the association, measured by ``bench_object_field.py``, and is

@@ -317,7 +317,7 @@ BENCHMARK_SCENES: tuple[str, ...] = tuple(sorted(n for n, s in SCENES.items() if
 # Scenes whose unseen share (visibility.unseen_shares: mean over the test views of the share of
 # pixels under the unseen mask; full size, seed 0) is below visibility.MIN_UNSEEN_SHARE: their
 # masked and ROI scores rest on few pixels (bear 0.85 %, toys 0.68 %, garden 0.55 %, fruits 0.028 %,
-# stool 0.016 %; README, "The synthetic benchmark"). Every realistic scene is above it.
+# stool 0.016 %; docs/guide.md, "The synthetic benchmark"). Every realistic scene is above it.
 LOW_UNSEEN_SHARE: tuple[str, ...] = ("bear", "fruits", "garden", "stool", "toys")
 
 

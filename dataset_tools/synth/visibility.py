@@ -93,7 +93,7 @@ def seen_by_object_inclusive_views(scene: "str | Path | object", points: np.ndar
 
 # The least unseen share (mean over a scene's test views of the share of pixels under the unseen
 # mask) for a scene to enter a masked or ROI average: below it those scores rest on a handful of
-# pixels (README, "The synthetic benchmark").
+# pixels (docs/guide.md, "The synthetic benchmark").
 MIN_UNSEEN_SHARE = 0.01
 
 

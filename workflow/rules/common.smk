@@ -25,7 +25,7 @@ def _is_folder(entry):
 
 
 def _expand(entries):
-    """`all`: the ten classic scenes (README, "The synthetic benchmark"); `dev` / `test`: every scene
+    """`all`: the ten classic scenes (docs/guide.md, "The synthetic benchmark"); `dev` / `test`: every scene
     of that suite (docs/architecture.md, "Development and test scenes"); other entries are catalogue
     names or scene folders. Keywords may be mixed with names (`[test, cone]`); repeats are dropped."""
     from dataset_tools.synth.catalogue import BENCHMARK_SCENES, suite_scenes

@@ -57,7 +57,7 @@ rule record:
 
 rule paper_tables:
     """per_scene, table1_average, table3_ablation, table2_runtime (CSV, Markdown, LaTeX) + provenance.json;
-    seed spreads and paired bootstrap intervals over the (scene, seed) runs (README, "Tables of the paper")."""
+    seed spreads and paired bootstrap intervals over the (scene, seed) runs (docs/guide.md, "Tables of the paper")."""
     input:
         records=[f"{OUT}/{s}/seed{k}/{g}/records/{m}.json" for s, k, g, m in runs()],
     output:

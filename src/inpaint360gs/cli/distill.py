@@ -46,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--classifier-lr", type=positive_float, default=d.classifier_lr, help=f"Adam learning rate of the classifier (default {d.classifier_lr:g})")
     parser.add_argument(
         "--min-weight", type=number(float, lo=0.0, hi=1.0, hi_open=True), default=d.min_weight,
-        help="drop cached compositing weights below this (default 0: exact; see README on what pruning costs)",
+        help="drop cached compositing weights below this (default 0: exact; see results/README.md on what pruning costs)",
     )  # fmt: skip
     add_scene_arguments(parser)
     add_backend_argument(parser, d.backend)

@@ -1,4 +1,4 @@
-"""The fill's geometry at the test cameras: ``inpaint360gs evaluate --model`` (README, "Metrics").
+"""The fill's geometry at the test cameras: ``inpaint360gs evaluate --model`` (docs/guide.md, "Metrics").
 
 Colour metrics hardly see a fill placed at the wrong depth when its texture is right, which is
 what the depth-guided initialisation (paper Sec. 3.5) is for. A synthetic scene knows the true

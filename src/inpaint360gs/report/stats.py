@@ -1,4 +1,4 @@
-"""Seed spread, paired bootstrap intervals and first places for the paper's tables (README, "Tables
+"""Seed spread, paired bootstrap intervals and first places for the paper's tables (docs/guide.md, "Tables
 of the paper").
 
 A *run* is one (scene, seed) of a method. Two rows of a table are compared on the runs both have:
