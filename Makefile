@@ -6,8 +6,8 @@ PYTHON ?= python3
 VENV ?= .venv
 # Snakemake --cores: twice the CPU count, i.e. two 2-thread jobs per two cores. A lone job leaves
 # about 30% of the two cores idle (its single-threaded phases: start-up, 2D inpainting, evaluation
-# bookkeeping); two at a time keep them ~99% busy, about 1.4x the throughput (results/README.md, "Time"
-# ). A job's results do not depend on it (each keeps --threads 2); its wall time grows.
+# bookkeeping); two at a time keep them ~99% busy, about 1.4x the throughput (results/README.md,
+# "Time"). A job's results do not depend on it (each keeps --threads 2); its wall time grows.
 CORES ?= $(shell echo $$(( 2 * $$(nproc 2>/dev/null || echo 2) )))
 # CPU build of torch; on this project's machines it installs from local disk. GPU users: see README.
 TORCH_SPEC ?= torch==2.13.0
