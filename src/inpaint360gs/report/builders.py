@@ -1,3 +1,11 @@
+"""Build the paper's tables from records (:mod:`.records`) as :class:`.table_model.Table` s: the
+supp. per-scene table, Tab. 1 (methods and baselines), Tab. 3 (ablations), Tab. 2 and its per-scene
+detail (runtime), and the supplementary's sweep over the number of virtual views.
+
+What the columns, marks and Δ rows mean is in :mod:`.paper`; the statistics are :mod:`.stats`.
+Nothing here writes a file.
+"""
+
 from __future__ import annotations
 
 from inpaint360gs.core.errors import InputError

@@ -1,3 +1,5 @@
+"""Plots of the paper's tables: the supplementary's distance against the number of virtual views."""
+
 from __future__ import annotations
 
 from inpaint360gs.report.table_model import Table

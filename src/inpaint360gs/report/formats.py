@@ -1,3 +1,7 @@
+"""Render a :class:`.table_model.Table` as CSV (full precision, every statistic a column), Markdown
+(title, table, legend, notes, provenance line) or a LaTeX booktabs ``table`` environment.
+"""
+
 from __future__ import annotations
 
 import pandas as pd
@@ -6,9 +10,6 @@ from inpaint360gs.report import stats
 from inpaint360gs.report.provenance import provenance_line
 from inpaint360gs.report.stats import HIGHER, NONE
 from inpaint360gs.report.table_model import MISSING, NOT_RUN, SUFFIXES, Column, Table
-
-
-# --- rendering ---------------------------------------------------------------------------------
 
 
 def _fmt(v: float | None, fmt: str) -> str:

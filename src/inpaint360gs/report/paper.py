@@ -25,6 +25,9 @@ The tables:
 Averages use only the runs every compared row has (the note says what was left out); records
 without metrics (no ground truth) are listed in ``per_scene`` with their reason. Every table is
 built before the first file is written, each file atomically (docs/architecture.md, "Reliability").
+
+Built by :mod:`.builders` (:mod:`.table_model`), rendered by :mod:`.formats`, plotted by
+:mod:`.figures`, ``provenance.json`` from :mod:`.provenance`; this module writes the files.
 """
 
 from __future__ import annotations

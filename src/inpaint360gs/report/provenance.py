@@ -1,3 +1,8 @@
+"""Where a table comes from: the git commit (:func:`git_commit`), the one-line provenance under every
+Markdown table, and ``provenance.json`` of the paper's tables (commit, config, package versions,
+machine, seeds, bootstrap settings, weights files, input records).
+"""
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -32,8 +37,6 @@ def provenance_line() -> str:
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return f"commit {git_commit()}, {now}, {platform.machine()} {platform.processor() or ''}".strip()
 
-
-# --- provenance --------------------------------------------------------------------------------
 
 PACKAGES = ("inpaint360gs", "torch", "numpy", "pandas", "snakemake", "pycolmap", "onnxruntime")
 

@@ -1,3 +1,11 @@
+"""The model of a paper table (:mod:`.paper`): text label columns, numeric :class:`Column` s and rows
+of values with their statistics; and the settings of the bootstrap that compares rows.
+
+A row is a dict: label values, numbers (``None`` = missing), and per statistics column
+``<key>_std``, ``<key>_ci_low``, ``<key>_ci_high``, ``<key>_mark``; ``_not_run`` holds the keys of
+the stages a method does not have. :mod:`.builders` fills tables, :mod:`.formats` writes them.
+"""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
