@@ -1,6 +1,6 @@
 """The fast CPU backend: numba kernels (:mod:`.numba_kernels`) wrapped as a ``torch.autograd.Function``.
 
-Compiled kernels are cached on disk (see :mod:`.numba_cache`; the first compile takes ~15 s).
+Compiled kernels are cached on disk (see :mod:`.numba_cache`; the first compile takes a while).
 Kernels run in float32 on ``min(torch.get_num_threads(), NUMBA_NUM_THREADS)`` threads, so torch
 and numba never oversubscribe.
 """
