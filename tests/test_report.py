@@ -6,7 +6,7 @@ from __future__ import annotations
 def test_git_commit_provenance_ignores_results(tmp_path, monkeypatch):
     import subprocess
 
-    from inpaint360gs.report.tables import git_commit
+    from inpaint360gs.report.provenance import git_commit
 
     def git(*a):
         subprocess.run(["git", *a], cwd=tmp_path, check=True, capture_output=True)

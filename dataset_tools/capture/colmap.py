@@ -47,12 +47,9 @@ ProgressFn = Callable[[str, int, int], None]  # (stage, done, total)
 # whose longest side is this many pixels; the poses and intrinsics are then mapped back to the
 # full-size photos, which the scene keeps. Feature extraction costs about the number of pixels and
 # exhaustive matching the square of the features per photo, so the size sets the time; too small
-# and SIFT finds too few features to link photos taken far apart. Measured on 25 real photos of a
-# walk-around (1558x1039, 2 cores, affine-covariant SIFT): every photo registers at 600, 800 and
-# 1000 px (18 of 25 at 400), while the whole build takes 41 / 84 / 122 CPU seconds; 800 keeps a step
-# of margin above the smallest size that registered all, at 2/3 of the time of 1000. Its poses
-# agree with those at full size to 0.5 % of the camera spread and 0.3° (after a similarity
-# alignment; results/benchmarks/build_photos.txt).
+# and SIFT finds too few features to link photos taken far apart. On a real walk-around, 800 keeps a
+# step of margin above the smallest size that registered every photo, in less time than 1000, with
+# poses that agree with those at full size (results/README.md, "Building datasets through COLMAP").
 SFM_MAX_SIZE = 800
 
 

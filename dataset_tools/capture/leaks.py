@@ -5,11 +5,10 @@ point that only object-free views observe (typically the floor under a removed o
 method what the hidden region looks like, so it must go (paper Sec. 4 "test-view point clouds are
 excluded from training" and supp. Sec. A; docs/architecture.md, "Scene format"). By default a point
 also goes when only ONE object-inclusive image observes it: one ray does not fix a depth, so its
-position came from the object-free views (measured on the synthetic benchmark: 34-132 such points
-per scene); and when the object-inclusive rays meet at less than ``min_inclusive_angle_deg`` (1.5°,
+position came from the object-free views; and when the object-inclusive rays meet at less than ``min_inclusive_angle_deg`` (1.5°,
 the minimum triangulation angle of COLMAP's mapper): nearly parallel rays do not fix it either, so a
-training-only reconstruction would not have that point (4-65 per synthetic scene; on the two scenes
-inspected every one of them was also observed by object-free views).
+training-only reconstruction would not have that point (how many of each: results/README.md,
+"Building datasets through COLMAP").
 """
 
 from __future__ import annotations

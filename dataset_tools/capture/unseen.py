@@ -14,7 +14,7 @@ only the built scene and an object mask per training view:
    mask: the objects hid it. Surface outside every training frame is no inpainting target (the same rule
    as the synthetic generator's exact masks, docs/architecture.md "Scene format").
 
-Limits (measured against the synthetic generator's exact masks, see the README here): the sparse
+Limits (scored against the synthetic generator's exact masks, see the README here): the sparse
 depth is only as good as the points around the hole: it is exact for a planar floor, but smooths
 over depth edges, so masks bleed near silhouettes. Without ``depth_test``, only the objects in the
 masks count as occluders; other occluders make the derived mask too small. Object masks that are

@@ -1,8 +1,7 @@
 """Lattice value noise and its band-limited fractal sum, compiled with numba.
 
-Texture evaluation dominates rendering: in numpy one value-noise octave over a 256x192 image with
-3x3 supersampling took ~0.28 s and a render ~5 s (most surfaces need ~10 octaves); this kernel does
-the same per-sample work in a single pass (measured in benchmarks/ and the report). Single-threaded
+Texture evaluation dominates rendering (most surfaces need ~10 octaves), too slow in numpy one
+octave at a time; this kernel does the same per-sample work in a single pass. Single-threaded
 and without fastmath, so results are bit-reproducible; compiled once and cached on disk.
 """
 

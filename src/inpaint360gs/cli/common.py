@@ -308,11 +308,10 @@ def set_threads(n: int) -> None:
 
     torch.set_num_threads(max(1, n))
     # torch computes exp, sqrt, log, ... on CPU with MKL's vector-math (VML) functions, splitting arrays
-    # of more than a few thousand elements over its threads. Measured here (torch 2.x CPU wheel, 2
-    # threads): when the process's *first* such call runs on two threads at once, in about one process
-    # in ten one thread's half of the output rounds differently (e.g. 1492 of 2987 sqrt values), so
-    # the same training run differed at rounding level from run to run. One tiny call on this thread
-    # alone, before any parallel work, does that first-call set-up; afterwards every run gave the same bits.
+    # of more than a few thousand elements over its threads. When the process's *first* such call runs
+    # on two threads at once, one thread's half of the output can round differently (CHANGELOG.md,
+    # History), so the same training run would differ at rounding level from run to run. One tiny call
+    # on this thread alone, before any parallel work, does that first-call set-up (tests/test_threads.py).
     for dtype in (torch.float32, torch.float64):
         torch.ones(1, dtype=dtype).exp()
     try:

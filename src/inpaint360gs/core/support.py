@@ -1,7 +1,7 @@
 """The surface an object stands on and the object's footprint on it, from Gaussian centres.
 
 An object standing on a support (a table, a floor, a mat) leaves, when removed, a region of that
-support to fill; what may stand there afterwards and how far the fill reaches are measured in this
+support to fill; what may stand there afterwards and how far the fill reaches are scored in this
 frame: the support plane fitted to the scene around the object, heights above it, and the object's
 outline projected onto it (the convex hull of its centres). Used by the removal (paper Sec. 3.4),
 the inpainting's support view and the no-ground-truth scores (docs/architecture.md, "Real captures").

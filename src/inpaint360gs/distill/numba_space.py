@@ -1,8 +1,8 @@
 """Numba kernel of the 3D spatial loss (paper Eq. 4): sum of cos(f_i, f_j) over kNN pairs and its gradient.
 
 One pass over the pairs (i, j in kNN(i)) accumulates the cosine and scatters its gradient to both
-features, in a fixed order on one thread: deterministic, and ~10x faster than torch's gather /
-index_put backward on the CPU (which dominated a step).
+features, in a fixed order on one thread: deterministic, and much cheaper than torch's gather /
+index_put backward on the CPU, which dominated a step.
 """
 
 from __future__ import annotations

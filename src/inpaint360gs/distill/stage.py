@@ -109,7 +109,7 @@ class Distiller:
 
     Internally the Gaussians are put in Morton (Z-curve) order of their centres
     (:func:`.cached.spatial_order`), so the rows the sparse products and the kNN loss touch together
-    lie close in memory (~30% faster products at 120k Gaussians); :meth:`field` returns them in the
+    lie close in memory (faster sparse products); :meth:`field` returns them in the
     model's own order. Everything random is drawn in the model's order, so the result does not
     depend on this.
     """

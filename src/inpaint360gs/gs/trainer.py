@@ -5,12 +5,9 @@ scene's training views with the 3DGS recipe (see :mod:`inpaint360gs.gs.config`),
 atomically, stops with :class:`TrainingDivergedError` on NaN/Inf, evaluates on the held-out views and
 writes ``point_cloud.ply``, ``metrics.json``, ``config.yaml`` and ``train_log.csv`` to ``out_dir``.
 Given the same scene, config and seed it is deterministic, whether or not numba's on-disk kernel
-cache exists yet, and a resumed run continues bit-for-bit. (The run that compiled the kernels used
-to differ at rounding level from the first step on, e.g. cone 33.62 vs 32.89 dB after 3000 steps:
-the compiling process called the kernels' helper functions in their own compiled copies, a process
-that loaded the kernels from the cache their copies inside the cached kernel, and with fastmath the
-two round differently. Each kernel now holds all of its fast-math code itself; see
-``render/numba_kernels.py``. ``tests/test_numba_cold_warm.py`` checks that the PLY files match.)
+cache exists yet (each kernel holds all of its fast-math code itself, see
+``render/numba_kernels.py``; ``tests/test_numba_cold_warm.py`` checks that the PLY files match),
+and a resumed run continues bit-for-bit.
 """
 
 from __future__ import annotations

@@ -48,8 +48,8 @@ class RefineConfig:
     lambda_dssim: float | None = None  # λ1; None: the variant's (0.2 paper, 0.8 code)
     lambda_lpips: float | None = None  # λ2; None: the variant's (0.005 paper, 0.0005 code)
     supervision: str = "hybrid"  # "hybrid" (Eq. 6) | "mask": ablation e)
-    # LPIPS network of the loss. AlexNet: VGG16 costs ~15 GMAC per 256x192 image, ~0.5 s per step for
-    # the loss's forward + backward on 2 CPU cores, 10x AlexNet; the evaluation uses VGG like the paper's code.
+    # LPIPS network of the loss. AlexNet: a step's forward + backward through it is far cheaper on CPU than
+    # through VGG16 (results/README.md, "Metrics"); the evaluation uses VGG like the paper's code.
     lpips_net: str = "alex"
     lpips_margin: int = 8  # pixels around the mask's bounding box for the LPIPS crop
     crop_margin_px: int = 16  # each view is optimised on its mask's bounding box grown by max(this, crop_margin x its size)

@@ -51,7 +51,7 @@ class InpaintConfig:
     masks: str = "unseen"  # "unseen": geometric NBS masks; "footprint": the removed objects' whole footprint (baseline ii)
     condition: bool = True  # recursive conditioning; False: ablation d)
     init: str = "depth"  # "depth": depth-guided initialisation; "naive": ablation b); "none": no new Gaussians (baseline ii)
-    rgb_inpainter: str = DEFAULT_RGB  # 2D inpainters (inpaint.inpainters registry; measured defaults there)
+    rgb_inpainter: str = DEFAULT_RGB  # 2D inpainters (inpaint.inpainters registry; why these defaults: CHANGELOG.md, History)
     depth_inpainter: str = DEFAULT_DEPTH
     lama_onnx: str | None = None  # LaMa checkpoint (ONNX) when an inpainter is "lama"
     occluders: bool = True  # take occluders out for inpainting, put them back after

@@ -1,5 +1,5 @@
 """Scores for a capture without ground truth: photos with the object only, nothing to compare the
-filled region with (docs/architecture.md, "Real captures"). What can be measured:
+filled region with (docs/architecture.md, "Real captures"). What can be scored:
 
 - **outside the hole nothing changes**: PSNR against the photos over the pixels outside the removed
   object's footprint grown by a margin (:func:`psnr_outside`);

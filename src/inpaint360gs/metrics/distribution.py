@@ -13,9 +13,9 @@ substitutes ``fd_vgg16``/``kid_vgg16`` (see ``evaluate.py``).
   instead of ``sqrtm``: with centred features ``A = (F1 - mu1) / sqrt(n1 - 1)`` (so ``S1 = A^T A``)
   and likewise ``B``, the nonzero eigenvalues of ``S1 S2`` are the squared singular values of the
   small ``n1 x n2`` matrix ``A B^T``, so ``tr (S1 S2)^(1/2)`` is its nuclear norm. The value is the
-  one pytorch-fid's ``sqrtm`` approximates, without its cost and failure modes on the singular
-  covariances of a scene's 8-30 views: ``sqrtm`` of a 512x512 product took 1-17 s on the 2-core
-  machine, of a 2048x2048 one 40-90 s (``method="sqrtm"`` still selects it).
+  one pytorch-fid's ``sqrtm`` approximates, without its cost (results/README.md, "Metrics") and
+  failure modes on the singular covariances of a scene's 8-30 views (``method="sqrtm"`` still
+  selects it).
 - KID: squared MMD with the polynomial kernel ``k(x, y) = (x.y / d + 1)^3`` and the unbiased
   estimator, over all features at once (a scene has only 8-30 test views, too few for subsets).
 """

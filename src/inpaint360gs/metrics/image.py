@@ -5,9 +5,9 @@ time; averaging over views is the caller's job (per-image mean, as in 3DGS ``met
 SSIM is the standard Gaussian-window SSIM (11x11, sigma 1.5, K1 0.01, K2 0.03; Wang et al. 2004)
 as torchmetrics computes it (reflection padding, variances clamped at 0). PSNR goes through
 torchmetrics; the SSIM map is computed here with the separable window (scipy ``correlate1d``,
-``mirror`` = torch's ``reflect``): the same numbers as torchmetrics' SSIM to ~1e-14, ~30x faster
-than its float64 grouped 2D convolution (0.76 s per 256x192 image on the 2-core machine), which
-matters for the scene evaluation (``evaluate.py``).
+``mirror`` = torch's ``reflect``): the same numbers as torchmetrics' SSIM to ~1e-14, far cheaper
+than its float64 grouped 2D convolution, which matters for the scene evaluation (``evaluate.py``;
+timings in results/README.md, "Metrics").
 """
 
 from __future__ import annotations

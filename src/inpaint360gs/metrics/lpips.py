@@ -15,12 +15,10 @@ with respect to the images (the 3D inpainting loss uses LPIPS). When only one im
 requires a gradient (a render against fixed ground truth), the other goes through the network
 without autograd, so the backward pass covers one image.
 
-Cost: VGG16 is 15.0 GMAC per 256x192 image (AlexNet 0.64), so one float32 forward+backward of a
-pair is ~90 GFLOP, ~0.45 s at best on two cores of the project's CPU machine (its convolutions
-measured ~100 GFLOP/s per core). bfloat16 inputs run a bfloat16 copy of the network, about twice
-as fast on CPUs with AVX512-BF16, with values within ~0.5% of float32 (measured on the reference
-images of the tests and the pair of ``benchmarks/bench_metrics.py``): an option for the loss, not
-for reported metrics.
+VGG16 costs about 23 times AlexNet's multiply-adds per image, which is why the 3D inpainting loss
+uses AlexNet on CPU. bfloat16 inputs run a bfloat16 copy of the network, faster on CPUs with
+AVX512-BF16 and close to, not equal to, float32: an option for the loss, not for reported metrics.
+Timings and the bfloat16 deviation: results/README.md, "Metrics" (``benchmarks/bench_metrics.py``).
 """
 
 from __future__ import annotations
@@ -98,7 +96,7 @@ class LPIPSNet(nn.Module):
 
     def features(self, x: torch.Tensor) -> list[torch.Tensor]:
         """The 5 tapped ReLU outputs of images ``x`` (N, 3, H, W) in [0, 1]."""
-        # channels-last is oneDNN's fast convolution layout on CPU (measured ~20% faster)
+        # channels-last is oneDNN's fast convolution layout on CPU
         x = ((2.0 * x - 1.0 - self.shift) / self.scale).contiguous(memory_format=torch.channels_last)
         feats = []
         for sl in self.slices:

@@ -1,6 +1,6 @@
 """The three mask conventions of the inpainting metrics, kept apart by name, and AMCR.
 
-Inpainting quality is measured in the unseen region of each test view (paper Sec. 4 "Metrics",
+Inpainting quality is scored in the unseen region of each test view (paper Sec. 4 "Metrics",
 Tab. 1). Three conventions exist, and a table must never mix them:
 
 - full image (``psnr``, ``ssim``, ``lpips``, ``lpips_alex``): the whole frame;

@@ -1,6 +1,6 @@
 """The fast CPU backend: numba kernels (:mod:`.numba_kernels`) wrapped as a ``torch.autograd.Function``.
 
-Compiled kernels are cached on disk (see :mod:`.numba_cache`; the first compile takes ~15 s).
+Compiled kernels are cached on disk (see :mod:`.numba_cache`; the first compile takes a while).
 Kernels run in float32 on ``min(torch.get_num_threads(), NUMBA_NUM_THREADS)`` threads, so torch
 and numba never oversubscribe.
 """
@@ -93,7 +93,7 @@ class NumbaBackend(RasterizerBackend):
         return rasterize_to_pixels_numba(splats, channels)
 
     def project_and_shade(self, gaussians, sh, camera, degree, *, near, far, eps2d):
-        # the same maths as projection.py + sh.py in one fused CPU kernel pair (35 ms -> 2 ms at 30k Gaussians)
+        # the same maths as projection.py + sh.py in one fused CPU kernel pair (why: numba_projection.py)
         from inpaint360gs.render.numba_projection import project_and_shade_numba
 
         g = gaussians

@@ -2,7 +2,7 @@
 
 Numba caches beside the sources (``__pycache__``) by default. In a read-only install, and when the
 user has not set ``NUMBA_CACHE_DIR``, the cache goes to ``$XDG_CACHE_HOME/inpaint360gs/numba``
-(default ``~/.cache/...``) so the ~15 s first compile is paid once per machine, not per process.
+(default ``~/.cache/...``) so the first compile is paid once per machine, not per process.
 """
 
 from __future__ import annotations

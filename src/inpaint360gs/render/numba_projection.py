@@ -1,9 +1,8 @@
 """Projection + SH colour for the numba backend: one fused CPU kernel each way, as a ``torch.autograd.Function``.
 
 The same maths as :func:`.projection.project_gaussians` and :func:`.sh.sh_to_rgb` (which stay the
-reference, and what the torch backend uses), written per Gaussian because on CPU the ~150 small
-torch ops of the autograd version cost ~35 ms forward+backward at 30k Gaussians against ~2 ms
-here. The backward is derived by hand (chain rule through conic -> 2D covariance -> J R_cam R_q S,
+reference, and what the torch backend uses), written per Gaussian because on CPU the overhead of
+the ~150 small torch ops of the autograd version dominates (results/README.md, "Rasterizer"). The backward is derived by hand (chain rule through conic -> 2D covariance -> J R_cam R_q S,
 the clamped pinhole Jacobian, quaternion normalisation and the SH basis); tests check it against
 autograd of the reference in float64.
 """

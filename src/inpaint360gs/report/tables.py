@@ -6,11 +6,8 @@ can be traced to the code that produced it.
 
 from __future__ import annotations
 
-import datetime as _dt
 import json
 import math
-import platform
-import subprocess
 from pathlib import Path
 
 import pandas as pd
@@ -18,24 +15,7 @@ import pandas as pd
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import check_readable
 from inpaint360gs.io.atomic import atomic_path, write_text
-
-
-def git_commit() -> str:
-    """Short commit hash of the working tree (with ``-dirty`` when tracked files outside ``results/``
-    have changes), or ``unknown``. Committed tables under ``results/`` do not count: Snakemake deletes
-    a job's old outputs before it runs, so the table being rewritten would always look modified."""
-    try:
-        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True)
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)results"],
-                               capture_output=True, text=True)
-        return rev.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
-def provenance_line() -> str:
-    now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    return f"commit {git_commit()}, {now}, {platform.machine()} {platform.processor() or ''}".strip()
+from inpaint360gs.report.provenance import provenance_line
 
 
 def load_metrics(paths: list[str | Path]) -> list[dict]:

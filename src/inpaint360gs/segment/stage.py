@@ -29,8 +29,8 @@ from inpaint360gs.render.api import render
 from inpaint360gs.segment.base import Segmenter, check_id_image
 
 SEGMENT_JSON = "segment.json"
-# A trained model reproduces its own training views far better than this (the CPU-budget models of
-# the benchmark reach 26–32 dB); another scene's model at these cameras scores well below it.
+# A trained model reproduces its own training views far better than this (results/README.md,
+# "3DGS reconstruction"); another scene's model at these cameras scores well below it.
 MIN_MODEL_PSNR = 16.0
 MODEL_CHECK_VIEWS = 3
 
