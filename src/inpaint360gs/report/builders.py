@@ -155,7 +155,8 @@ def _metric_column(m: str, substitute: bool = False) -> Column:
 
 
 def _values(recs: dict[Run, dict], runs: set[Run], metric: str) -> dict[Run, float | None]:
-    return {r: recs[r]["metrics"][metric] for r in runs}
+    """``metric`` of each run, in sorted run order: sums over it do not depend on the set's hash order."""
+    return {r: recs[r]["metrics"][metric] for r in sorted(runs)}
 
 
 def _mean_row(key, recs: dict[Run, dict], runs: set[Run], metrics: tuple[str, ...], notes: list[str]) -> dict:
