@@ -24,7 +24,7 @@ SRC = Path(inpaint360gs.__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def tiny(tmp_path_factory) -> tuple[Path, Path]:
-    """A 32x24 blobs scene and its exact model (blob k = object k after association), as tests/test_run.py's."""
+    """A 32x24 blobs scene and its exact model (blob k = object k after association), as tests/pipeline/test_run.py's."""
     base = tmp_path_factory.mktemp("api")
     root = blobs_scene(base / "scene", n_views=10, width=32, height=24, f=27.5)[0]
     write_ply(base / "model.ply", blobs_model()[0])

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PKG = ROOT / "src" / "inpaint360gs"
 
 # floor of every sub-package of inpaint360gs (the order of docs/architecture.md)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SOURCES = sorted((ROOT / "src").rglob("*.py"))
 MAX_DOCSTRING_LINES = 30
 # 7 to 40 hex digits with a letter and a digit: how a commit hash looks (a file name's checksum, as in

@@ -311,7 +311,7 @@ def set_threads(n: int) -> None:
     # of more than a few thousand elements over its threads. When the process's *first* such call runs
     # on two threads at once, one thread's half of the output can round differently (CHANGELOG.md,
     # History), so the same training run would differ at rounding level from run to run. One tiny call
-    # on this thread alone, before any parallel work, does that first-call set-up (tests/test_threads.py).
+    # on this thread alone, before any parallel work, does that first-call set-up (tests/cli/test_threads.py).
     for dtype in (torch.float32, torch.float64):
         torch.ones(1, dtype=dtype).exp()
     try:

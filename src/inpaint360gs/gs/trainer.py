@@ -6,7 +6,7 @@ atomically, stops with :class:`TrainingDivergedError` on NaN/Inf, evaluates on t
 writes ``point_cloud.ply``, ``metrics.json``, ``config.yaml`` and ``train_log.csv`` to ``out_dir``.
 Given the same scene, config and seed it is deterministic, whether or not numba's on-disk kernel
 cache exists yet (each kernel holds all of its fast-math code itself, see
-``render/numba_kernels.py``; ``tests/test_numba_cold_warm.py`` checks that the PLY files match),
+``render/numba_kernels.py``; ``tests/render/test_numba_cold_warm.py`` checks that the PLY files match),
 and a resumed run continues bit-for-bit.
 """
 

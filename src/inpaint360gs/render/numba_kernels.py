@@ -27,7 +27,7 @@ the two copies round differently, and the JIT binds the call to whichever copy i
 forward and backward run one ``nogil`` worker kernel per thread on Python threads
 (:func:`_run_workers`), and ``pack`` is serial. The projection kernels (:mod:`.numba_projection`)
 keep ``prange``: without fastmath a re-optimised copy computes the same IEEE results.
-``tests/test_numba_cold_warm.py`` checks both. Import through :mod:`.numba_backend` (it sets up the cache).
+``tests/render/test_numba_cold_warm.py`` checks both. Import through :mod:`.numba_backend` (it sets up the cache).
 """
 
 from __future__ import annotations
