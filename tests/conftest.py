@@ -1,6 +1,8 @@
-"""Test-session settings that must precede the first import of torch."""
+"""Test-session settings that must precede the first import of torch, and fixtures for the shared scenes."""
 
 import os
+
+import pytest
 
 # As ``import inpaint360gs`` does (see its __init__): idle OpenMP threads of torch and numba sleep
 # instead of spinning, or they steal the 2 CPU cores from each other. A test module that imports
@@ -22,3 +24,33 @@ def pytest_collection_modifyitems(config, items):
         return first.index(name) if name in first else len(first)
 
     items.sort(key=rank)  # stable: the order inside each group is kept
+
+
+# --- shared scenes (builders in scene_builder.py; imported inside the fixtures, after the settings above) ---
+
+
+@pytest.fixture(scope="session")
+def make_blobs_scene(tmp_path_factory):
+    """Factory: ``make_blobs_scene(name, **kw)`` writes :func:`scene_builder.blobs_scene` (keywords as
+    there) to ``blobs/`` in a fresh temporary folder named after ``name`` and returns (root, model,
+    labels); the folder above ``root`` is the caller's, for what it writes beside the scene."""
+    from scene_builder import blobs_scene
+
+    def make(name: str, **kw):
+        return blobs_scene(tmp_path_factory.mktemp(name) / "blobs", **kw)
+
+    return make
+
+
+@pytest.fixture(scope="module")
+def tiny_scene(tmp_path_factory):
+    """A 32x24 blobs scene (10 views, 2 test views) and its exact model (blob k = object k after
+    association) as ``model.ply`` beside it; returns (scene root, model path)."""
+    from scene_builder import blobs_model, blobs_scene
+
+    from inpaint360gs.io.ply import write_ply
+
+    base = tmp_path_factory.mktemp("tiny")
+    root = blobs_scene(base / "scene", n_views=10, width=32, height=24, f=27.5)[0]
+    write_ply(base / "model.ply", blobs_model()[0])
+    return root, base / "model.ply"

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from scene_builder import blobs_scene
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.scene import load_scene
@@ -74,8 +73,8 @@ def _segments(truth, rng, split=False):
 
 
 @pytest.fixture(scope="module")
-def blobs(tmp_path_factory):
-    root, model, labels = blobs_scene(tmp_path_factory.mktemp("assoc") / "blobs")
+def blobs(make_blobs_scene):
+    root, model, labels = make_blobs_scene("assoc")
     scene = load_scene(root)
     return scene, model, _true_labels(scene, model, labels)
 

@@ -13,22 +13,11 @@ import sys
 from pathlib import Path
 
 import pytest
-from scene_builder import blobs_model, blobs_scene
 
 import inpaint360gs
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.io.ply import write_ply
 
 SRC = Path(inpaint360gs.__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory) -> tuple[Path, Path]:
-    """A 32x24 blobs scene and its exact model (blob k = object k after association), as tests/pipeline/test_run.py's."""
-    base = tmp_path_factory.mktemp("api")
-    root = blobs_scene(base / "scene", n_views=10, width=32, height=24, f=27.5)[0]
-    write_ply(base / "model.ply", blobs_model()[0])
-    return root, base / "model.ply"
 
 
 def test_import_loads_no_heavy_module():
@@ -52,25 +41,25 @@ def test_every_exported_name_resolves_and_is_documented():
         inpaint360gs.no_such_name  # noqa: B018
 
 
-def test_the_cli_default_is_the_cpu_preset_and_options_override_it(tiny, tmp_path):
+def test_the_cli_default_is_the_cpu_preset_and_options_override_it(tiny_scene, tmp_path):
     from inpaint360gs.cli.run import add_arguments, run_config
 
     parser = argparse.ArgumentParser()
     add_arguments(parser)
     cpu = inpaint360gs.PRESETS["cpu"]
-    assert run_config(parser.parse_args([str(tiny[0]), str(tmp_path / "o")])) == cpu.run_config()
-    gpu = run_config(parser.parse_args([str(tiny[0]), str(tmp_path / "o"), "--preset", "gpu", "--seed", "3"]))
+    assert run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o")])) == cpu.run_config()
+    gpu = run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o"), "--preset", "gpu", "--seed", "3"]))
     assert gpu == inpaint360gs.PRESETS["gpu"].run_config(seed=3)
     assert (gpu.train.iterations, gpu.train.schedule_scale, gpu.train.densify.max_gaussians, gpu.backend) == (30000, 1.0, 0, "gsplat")
-    mine = run_config(parser.parse_args([str(tiny[0]), str(tmp_path / "o"), "--preset", "gpu", "--iterations", "600", "--backend", "torch"]))
+    mine = run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o"), "--preset", "gpu", "--iterations", "600", "--backend", "torch"]))
     assert (mine.train.iterations, mine.train.schedule_scale, mine.distill.backend, mine.inpaint.refine.backend) == (600, 0.02, "torch", "torch")
     assert (cpu.iterations, cpu.max_gaussians) == (3000, 120_000)
     with pytest.raises(InputError, match="unknown preset"):
         inpaint360gs.get_preset("fast")
 
 
-def test_remove_object_runs_the_stages_and_reports_them(tiny, tmp_path):
-    root, model = tiny
+def test_remove_object_runs_the_stages_and_reports_them(tiny_scene, tmp_path):
+    root, model = tiny_scene
     cfg = inpaint360gs.get_preset("cpu").run_config()
     cfg = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=20))
     out = tmp_path / "out"
@@ -84,8 +73,8 @@ def test_remove_object_runs_the_stages_and_reports_them(tiny, tmp_path):
     assert set(again.stages.values()) == {"given", "up to date"} and again.seconds == res.seconds
 
 
-def test_remove_object_refuses_bad_input_before_any_stage(tiny, tmp_path):
-    root, model = tiny
+def test_remove_object_refuses_bad_input_before_any_stage(tiny_scene, tmp_path):
+    root, model = tiny_scene
     with pytest.raises(InputError, match="not \\(view, x, y\\)"):
         inpaint360gs.remove_object(root, tmp_path / "a", clicks=[("IMG_001.png", 3)], model=model)
     with pytest.raises(InputError, match="unknown preset"):

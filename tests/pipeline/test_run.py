@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_harness import restore_threads  # noqa: F401  (the CLI run sets torch's thread count)
-from scene_builder import blobs_model, blobs_scene, write_png
+from scene_builder import blobs_model, write_png
 
 from inpaint360gs.cli import main
 from inpaint360gs.core.errors import InputError
@@ -32,16 +32,6 @@ from inpaint360gs.associate.config import AssociationConfig
 
 W, H = 32, 24
 VIEW = "IMG_001.png"
-
-
-@pytest.fixture(scope="module")
-def tiny(tmp_path_factory) -> tuple[Path, Path]:
-    """A 32x24 blobs scene and its exact model (blob k = object k after association)."""
-    base = tmp_path_factory.mktemp("run")
-    root = blobs_scene(base / "scene", n_views=10, width=W, height=H, f=27.5)[0]
-    model, _ = blobs_model()
-    write_ply(base / "model.ply", model)
-    return root, base / "model.ply"
 
 
 class StubRunner(Runner):
@@ -86,17 +76,17 @@ def stub_run(tiny, out, cfg=None, until="inpaint", fail=None, **kw) -> tuple[lis
     return r.run(until), log
 
 
-def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_stage(tiny, tmp_path):
-    out, model = tmp_path / "out", tiny[1]
+def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_stage(tiny_scene, tmp_path):
+    out, model = tmp_path / "out", tiny_scene[1]
     cfg = RunConfig(distill=DistillConfig(iterations=5))
-    done, ran = stub_run(tiny, out, cfg, model=model)
+    done, ran = stub_run(tiny_scene, out, cfg, model=model)
     assert done == [("train", "given"), *((s, "ran") for s in STAGES[1:])]
     assert ran == list(STAGES[1:])
     record = json.loads((out / "run.json").read_text())
     assert set(record) == set(STAGES[1:]) | {SECONDS_KEY}
     assert set(record[SECONDS_KEY]) == set(STAGES[1:]) and all(t >= 0 for t in record[SECONDS_KEY].values())  # wall time of each stage that ran
 
-    done, ran = stub_run(tiny, out, cfg, model=model)  # nothing changed
+    done, ran = stub_run(tiny_scene, out, cfg, model=model)  # nothing changed
     assert ran == [] and done == [("train", "given"), *((s, "up to date") for s in STAGES[1:])]
 
     cases = [  # (the change, the stages that must run again)
@@ -108,56 +98,56 @@ def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_st
     ]
     for change, want in cases:
         cfg = change(cfg)
-        assert stub_run(tiny, out, cfg, model=model)[1] == want
-        assert stub_run(tiny, out, cfg, model=model)[1] == []
+        assert stub_run(tiny_scene, out, cfg, model=model)[1] == want
+        assert stub_run(tiny_scene, out, cfg, model=model)[1] == []
     # another selection: only removal and what follows
-    assert stub_run(tiny, out, cfg, model=model, ids=[2])[1] == ["remove", "inpaint"]
-    assert stub_run(tiny, out, cfg, model=model, clicks=[Click(VIEW, 5, 5)])[1] == ["remove", "inpaint"]
-    assert stub_run(tiny, out, cfg, model=model, clicks=[Click(VIEW, 5, 5)])[1] == []
+    assert stub_run(tiny_scene, out, cfg, model=model, ids=[2])[1] == ["remove", "inpaint"]
+    assert stub_run(tiny_scene, out, cfg, model=model, clicks=[Click(VIEW, 5, 5)])[1] == ["remove", "inpaint"]
+    assert stub_run(tiny_scene, out, cfg, model=model, clicks=[Click(VIEW, 5, 5)])[1] == []
 
 
-def test_training_settings_and_given_models(tiny, tmp_path):
+def test_training_settings_and_given_models(tiny_scene, tmp_path):
     out = tmp_path / "out"
     cfg = RunConfig(train=TrainConfig(iterations=10))
-    assert stub_run(tiny, out, cfg, until="segment")[1] == ["train", "segment"]
-    assert stub_run(tiny, out, cfg, until="segment")[1] == []
+    assert stub_run(tiny_scene, out, cfg, until="segment")[1] == ["train", "segment"]
+    assert stub_run(tiny_scene, out, cfg, until="segment")[1] == []
     cfg = dataclasses.replace(cfg, train=TrainConfig(iterations=11))
-    assert stub_run(tiny, out, cfg, until="segment")[1] == ["train", "segment"]
+    assert stub_run(tiny_scene, out, cfg, until="segment")[1] == ["train", "segment"]
     # a given model: training is skipped; its content (not its name) decides
     given = tmp_path / "given.ply"
-    given.write_bytes(tiny[1].read_bytes())
-    assert stub_run(tiny, out, cfg, until="segment", model=given)[1] == ["segment"]
-    assert stub_run(tiny, out, cfg, until="segment", model=given)[1] == []
+    given.write_bytes(tiny_scene[1].read_bytes())
+    assert stub_run(tiny_scene, out, cfg, until="segment", model=given)[1] == ["segment"]
+    assert stub_run(tiny_scene, out, cfg, until="segment", model=given)[1] == []
     model, _ = blobs_model(seed=1)
     write_ply(given, model)
-    assert stub_run(tiny, out, cfg, until="segment", model=given)[1] == ["segment"]
+    assert stub_run(tiny_scene, out, cfg, until="segment", model=given)[1] == ["segment"]
 
 
-def test_until_stops_and_a_later_run_continues(tiny, tmp_path):
-    out, model = tmp_path / "out", tiny[1]
-    done, ran = stub_run(tiny, out, model=model, until="associate")
+def test_until_stops_and_a_later_run_continues(tiny_scene, tmp_path):
+    out, model = tmp_path / "out", tiny_scene[1]
+    done, ran = stub_run(tiny_scene, out, model=model, until="associate")
     assert [s for s, _ in done] == ["train", "segment", "associate"] and ran == ["segment", "associate"]
     assert not (out / "distill").exists()
-    assert stub_run(tiny, out, model=model, until="remove")[1] == ["distill", "remove"]
+    assert stub_run(tiny_scene, out, model=model, until="remove")[1] == ["distill", "remove"]
     with pytest.raises(InputError, match="unknown stage 'render'"):
-        stub_run(tiny, out, model=model, until="render")
+        stub_run(tiny_scene, out, model=model, until="render")
 
 
-def test_a_lost_output_or_record_reruns_what_it_must(tiny, tmp_path):
-    out, model = tmp_path / "out", tiny[1]
-    stub_run(tiny, out, model=model)
+def test_a_lost_output_or_record_reruns_what_it_must(tiny_scene, tmp_path):
+    out, model = tmp_path / "out", tiny_scene[1]
+    stub_run(tiny_scene, out, model=model)
     (out / "associate" / "objects.json").unlink()
     # the lost stage runs again; its signature is unchanged, so what follows stays up to date
-    assert stub_run(tiny, out, model=model)[1] == ["associate"]
+    assert stub_run(tiny_scene, out, model=model)[1] == ["associate"]
     (out / "run.json").write_text("{not json")
-    assert stub_run(tiny, out, model=model)[1] == list(STAGES[1:])
+    assert stub_run(tiny_scene, out, model=model)[1] == list(STAGES[1:])
     (out / "run.json").write_text("[1, 2]")
-    assert stub_run(tiny, out, model=model)[1] == list(STAGES[1:])
+    assert stub_run(tiny_scene, out, model=model)[1] == list(STAGES[1:])
 
 
-def test_scene_content_decides_not_its_name(tiny, tmp_path):
-    root = shutil.copytree(tiny[0], tmp_path / "scene")
-    out, model = tmp_path / "out", tiny[1]
+def test_scene_content_decides_not_its_name(tiny_scene, tmp_path):
+    root = shutil.copytree(tiny_scene[0], tmp_path / "scene")
+    out, model = tmp_path / "out", tiny_scene[1]
     runner = lambda: StubRunner(load_scene(root), out, RunConfig(), log=[], ids=[1], model=model, progress=False)  # noqa: E731
     r = runner()
     r.run("distill")
@@ -174,16 +164,16 @@ def test_scene_content_decides_not_its_name(tiny, tmp_path):
     assert r.log == ["segment", "associate", "distill"]  # the record holds the last content only
 
 
-def test_a_failed_stage_keeps_what_came_before(tiny, tmp_path):
-    out, model = tmp_path / "out", tiny[1]
+def test_a_failed_stage_keeps_what_came_before(tiny_scene, tmp_path):
+    out, model = tmp_path / "out", tiny_scene[1]
     with pytest.raises(InputError, match="distill failed"):
-        stub_run(tiny, out, model=model, fail="distill")
+        stub_run(tiny_scene, out, model=model, fail="distill")
     assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate"}
-    assert stub_run(tiny, out, model=model)[1] == ["distill", "remove", "inpaint"]
+    assert stub_run(tiny_scene, out, model=model)[1] == ["distill", "remove", "inpaint"]
 
 
-def test_clicks_are_checked_before_any_stage(tiny, tmp_path):
-    root, model = tiny
+def test_clicks_are_checked_before_any_stage(tiny_scene, tmp_path):
+    root, model = tiny_scene
     scene = load_scene(root)
     for clicks, message in (
         ([Click("IMG_999.png", 3, 3)], "has no view"),
@@ -197,36 +187,36 @@ def test_clicks_are_checked_before_any_stage(tiny, tmp_path):
     assert not (tmp_path / "out").exists()
 
 
-def test_clicks_default_to_scene_json(tiny, tmp_path):
-    root = shutil.copytree(tiny[0], tmp_path / "scene")
+def test_clicks_default_to_scene_json(tiny_scene, tmp_path):
+    root = shutil.copytree(tiny_scene[0], tmp_path / "scene")
     (root / "scene.json").write_text(json.dumps({"clicks": [{"object": 1, "view": VIEW, "x": 4, "y": 5}]}))
-    r = Runner(load_scene(root), tmp_path / "out", RunConfig(), model=tiny[1], progress=False)
+    r = Runner(load_scene(root), tmp_path / "out", RunConfig(), model=tiny_scene[1], progress=False)
     assert r.clicks == [Click(VIEW, 4, 5)]
-    r = Runner(load_scene(root), tmp_path / "out", RunConfig(), model=tiny[1], ids=[2], progress=False)
+    r = Runner(load_scene(root), tmp_path / "out", RunConfig(), model=tiny_scene[1], ids=[2], progress=False)
     assert r.clicks == [] and r.ids == [2]  # given ids replace scene.json's clicks
     (root / "scene.json").write_text(json.dumps({"clicks": [{"view": VIEW, "x": 400, "y": 5}]}))
     with pytest.raises(InputError, match="scene.json: click IMG_001.png:400,5 is outside"):
-        Runner(load_scene(root), tmp_path / "out", RunConfig(), model=tiny[1], progress=False)
+        Runner(load_scene(root), tmp_path / "out", RunConfig(), model=tiny_scene[1], progress=False)
 
 
-def test_an_output_folder_that_is_not_a_run_is_refused(tiny, tmp_path):
+def test_an_output_folder_that_is_not_a_run_is_refused(tiny_scene, tmp_path):
     out = tmp_path / "out"
     (out / "distill").mkdir(parents=True)
     (out / ".segment.123.abc.tmp").mkdir()  # a killed stage's temporary
-    stub_run(tiny, out, model=tiny[1], until="segment")
+    stub_run(tiny_scene, out, model=tiny_scene[1], until="segment")
     (out / "notes.txt").write_text("mine")
     with pytest.raises(InputError, match="holds 'notes.txt'"):
-        stub_run(tiny, out, model=tiny[1])
+        stub_run(tiny_scene, out, model=tiny_scene[1])
 
 
 # --- the real stages, through the CLI ------------------------------------------------------------------
 
 
-def test_cli_run_with_the_real_stages(tiny, tmp_path, capsys):
-    """segment -> associate -> distill -> remove on the tiny scene: a click on the background fails at
+def test_cli_run_with_the_real_stages(tiny_scene, tmp_path, capsys):
+    """segment -> associate -> distill -> remove on the tiny_scene scene: a click on the background fails at
     the removal with the earlier stages kept; fixed, the run continues there; then nothing reruns
     (same bytes), and a distillation setting reruns distill and remove only."""
-    root, model = tiny
+    root, model = tiny_scene
     out = tmp_path / "out"
 
     def argv(*sel: str, distill_iterations: int = 20) -> list[str]:

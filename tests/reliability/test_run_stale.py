@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import json
 
-from test_run import StubRunner, stub_run, tiny  # noqa: F401 (the scene fixture)
+from test_run import StubRunner, stub_run
 
 from cli_harness import restore_threads, run_cli  # noqa: F401
 from inpaint360gs.distill.config import DistillConfig
@@ -28,47 +28,47 @@ def recorded(out) -> list[str]:
     return [s for s in STAGES if s in json.loads((out / "run.json").read_text())]
 
 
-def test_until_removes_the_stages_a_change_made_stale(tiny, tmp_path):  # noqa: F811
-    out, model = tmp_path / "out", tiny[1]
+def test_until_removes_the_stages_a_change_made_stale(tiny_scene, tmp_path):
+    out, model = tmp_path / "out", tiny_scene[1]
     cfg = RunConfig(distill=DistillConfig(iterations=5))
-    assert stub_run(tiny, out, cfg, model=model)[1] == list(STAGES[1:])
+    assert stub_run(tiny_scene, out, cfg, model=model)[1] == list(STAGES[1:])
     cfg = dataclasses.replace(cfg, distill=DistillConfig(iterations=6))
-    assert stub_run(tiny, out, cfg, model=model, until="remove")[1] == ["distill", "remove"]
+    assert stub_run(tiny_scene, out, cfg, model=model, until="remove")[1] == ["distill", "remove"]
     assert present(out) == recorded(out) == ["segment", "associate", "distill", "remove"]  # the old inpainting is gone
-    assert stub_run(tiny, out, cfg, model=model)[1] == ["inpaint"]
+    assert stub_run(tiny_scene, out, cfg, model=model)[1] == ["inpaint"]
     cfg = dataclasses.replace(cfg, seed=3)  # from segmentation on
-    assert stub_run(tiny, out, cfg, model=model, until="segment")[1] == ["segment"]
+    assert stub_run(tiny_scene, out, cfg, model=model, until="segment")[1] == ["segment"]
     assert present(out) == recorded(out) == ["segment"]
     # an unchanged later stage beyond --until stays: it still follows from the settings
-    assert stub_run(tiny, out, cfg, model=model)[1] == ["associate", "distill", "remove", "inpaint"]
-    assert stub_run(tiny, out, cfg, model=model, until="associate")[1] == []
+    assert stub_run(tiny_scene, out, cfg, model=model)[1] == ["associate", "distill", "remove", "inpaint"]
+    assert stub_run(tiny_scene, out, cfg, model=model, until="associate")[1] == []
     assert present(out) == recorded(out) == list(STAGES[1:])
 
 
-def test_a_folder_the_record_does_not_know_is_stale(tiny, tmp_path):  # noqa: F811
+def test_a_folder_the_record_does_not_know_is_stale(tiny_scene, tmp_path):
     """A stage folder without a run.json entry (its process was killed between the two writes, or the
     record was lost) is not presented as current: it is removed, or rebuilt when its stage runs."""
-    out, model = tmp_path / "out", tiny[1]
-    stub_run(tiny, out, model=model)
+    out, model = tmp_path / "out", tiny_scene[1]
+    stub_run(tiny_scene, out, model=model)
     (out / "run.json").unlink()
-    assert stub_run(tiny, out, model=model, until="associate")[1] == ["segment", "associate"]
+    assert stub_run(tiny_scene, out, model=model, until="associate")[1] == ["segment", "associate"]
     assert present(out) == recorded(out) == ["segment", "associate"]
 
 
-def test_the_3dgs_folder_is_the_trainers_or_holds_the_given_model(tiny, tmp_path):  # noqa: F811
+def test_the_3dgs_folder_is_the_trainers_or_holds_the_given_model(tiny_scene, tmp_path):
     out = tmp_path / "out"
     cfg = RunConfig(train=TrainConfig(iterations=10))
-    stub_run(tiny, out, cfg, until="segment")
+    stub_run(tiny_scene, out, cfg, until="segment")
     assert present(out) == ["train", "segment"]
     # a changed training setting: the trainer resumes or replaces its own folder (not removed first)
-    r = StubRunner(load_scene(tiny[0]), out, dataclasses.replace(cfg, train=TrainConfig(iterations=11)), log=[], ids=[1], progress=False)
+    r = StubRunner(load_scene(tiny_scene[0]), out, dataclasses.replace(cfg, train=TrainConfig(iterations=11)), log=[], ids=[1], progress=False)
     assert r.remove_stale(r.signatures()) == ["segment"]
     # the run's own model given back as --model: its folder is an input and stays
     own = out / "3dgs" / "point_cloud.ply"
-    assert stub_run(tiny, out, cfg, until="segment", model=own)[1] == ["segment"]
+    assert stub_run(tiny_scene, out, cfg, until="segment", model=own)[1] == ["segment"]
     assert (out / "3dgs").is_dir()
     # another given model: the trained folder no longer follows from the settings
-    assert stub_run(tiny, out, cfg, until="segment", model=tiny[1])[1] == ["segment"]
+    assert stub_run(tiny_scene, out, cfg, until="segment", model=tiny_scene[1])[1] == ["segment"]
     assert present(out) == ["segment"]
 
 

@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 import torch
 from object_fields import ball, labelled_field, one_hot_features, points_model
-from scene_builder import blobs_scene
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
@@ -61,9 +60,9 @@ def test_malformed_click_is_an_input_error_naming_the_option(text):
 
 
 @pytest.fixture(scope="module")
-def blobs(tmp_path_factory):
+def blobs(make_blobs_scene):
     """The blobs scene (floor = class 0, blob 1 -> id 3, blob 2 -> id 7) and its labelled field."""
-    root, model, labels = blobs_scene(tmp_path_factory.mktemp("remove") / "blobs", n_views=10)
+    root, model, labels = make_blobs_scene("remove", n_views=10)
     scene = load_scene(root)
     return scene, model, labels, labelled_field(model, labels, IDS)
 

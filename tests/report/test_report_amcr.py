@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 import torch
 from object_fields import labelled_field
-from scene_builder import blobs_scene
 
 from inpaint360gs.cli import main
 from inpaint360gs.core.gaussians import Gaussians
@@ -27,10 +26,10 @@ IDS = [0, 3, 7]  # class -> object id
 
 
 @pytest.fixture(scope="module")
-def removed(tmp_path_factory):
+def removed(make_blobs_scene):
     """Blob 1 (id 3) removed by probability alone (no hull, footprint or support steps), so that
     exactly its Gaussians go; returns (scene, model, labels, removal folder)."""
-    root, model, labels = blobs_scene(tmp_path_factory.mktemp("amcr") / "blobs", n_views=8, n_test=3)
+    root, model, labels = make_blobs_scene("amcr", n_views=8, n_test=3)
     scene = load_scene(root)
     field = labelled_field(model, labels, IDS)
     out = root.parent / "removed"

@@ -9,7 +9,6 @@ import json
 import numpy as np
 import pytest
 import torch
-from scene_builder import blobs_scene
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.images import write_mask
@@ -21,10 +20,10 @@ from inpaint360gs.views.unseen import normalised_depth
 
 
 @pytest.fixture(scope="module")
-def solid(tmp_path_factory):
+def solid(make_blobs_scene):
     """The blobs scene, its model as a PLY, and per test view the model's own depth where it is
     solid (alpha >= 0.9), which is where the unseen masks are put."""
-    root, model, _ = blobs_scene(tmp_path_factory.mktemp("geometry") / "blobs", n_views=4, n_test=2)
+    root, model, _ = make_blobs_scene("geometry", n_views=4, n_test=2)
     ply = root.parent / "model.ply"
     write_ply(ply, model)
     scene = load_scene(root)
