@@ -26,7 +26,7 @@ from inpaint360gs.metrics import (
 )
 from inpaint360gs.evaluate.stage import evaluate_renders, metric_names
 from inpaint360gs.metrics.masked import EMPTY_ROI_REASON, INFINITE_PSNR_REASON
-from tests.scene_builder import simple_scene, write_png
+from scene_builder import simple_scene, write_png
 from test_metrics_distribution import generated_inception  # noqa: F401 (session fixture)
 
 W, H = 64, 48

@@ -21,7 +21,7 @@ import scene_builder as sb
 from cli_harness import restore_threads, run_cli, tree  # noqa: F401 (autouse fixture)
 from inpaint360gs.core.errors import EXIT_SIGINT, EXIT_SIGTERM
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ENV = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), str(ROOT)])}
 ENV.pop("INPAINT360GS_DEBUG", None)
 # torch backend: bit-identical across processes whatever state numba's kernel cache is in (gs/trainer.py)
