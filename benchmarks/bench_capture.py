@@ -62,4 +62,9 @@ def main() -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from inpaint360gs.core.errors import InputError
+
+    try:
+        sys.exit(main())
+    except (InputError, OSError) as e:  # one line naming the file and the problem, as the CLIs do
+        sys.exit(f"bench_capture.py: error: {e}")

@@ -14,6 +14,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.core.support import Footprint, object_footprint
 from inpaint360gs.io.ply import read_ply
@@ -36,10 +38,18 @@ class CaptureRun:
 
     @staticmethod
     def of_run(run: str | Path) -> "CaptureRun":
-        """The folders of ``inpaint360gs run``'s OUT."""
+        """The folders of ``inpaint360gs run``'s OUT; the model is its ``3dgs/`` PLY, or the one the
+        distillation was made from when the run was given ``--model``. Raises :class:`InputError`
+        when the run has no distillation to read that from."""
         run = Path(run)
         inp = run / "inpainted"
-        return CaptureRun(run / "3dgs" / "point_cloud.ply", run / "distill", run / "removed", inp if (inp / "point_cloud.ply").is_file() else None)
+        model = run / "3dgs" / "point_cloud.ply"
+        if not model.is_file():
+            record = run / "distill" / "distill.json"
+            if not record.is_file():
+                raise InputError("not a finished run of inpaint360gs run (no 3dgs/point_cloud.ply and no distill/distill.json)", run)
+            model = Path(read_json_object(record)["inputs"]["model"])
+        return CaptureRun(model, run / "distill", run / "removed", inp if (inp / "point_cloud.ply").is_file() else None)
 
 
 def footprint_renders(distilled: Gaussians, removed: torch.Tensor, cameras) -> list[np.ndarray]:
