@@ -66,9 +66,11 @@ class InpaintConfig:
     # within this x the footprint's size around it (footprint_rows); without, those near the removed
     # Gaussians (refine.RefineConfig.region_margin).
     footprint_margin: float = 0.25
-    # A surface the removal reveals is filled when it lies within this x the footprint's size of it (a
-    # backdrop behind the object); farther, the depth test's doubts are the 3DGS's own, not the removal's.
-    reveal_margin: float = 0.5
+    # A surface the removal reveals off the support plane is filled (at its rendered depth), and new
+    # Gaussians are kept, within this x the footprint's size of the footprint's column. 0: inside the
+    # column only; beyond it the rendered depth is the 3DGS's uncertain one and fill Gaussians put
+    # there show as smears from other views (docs/architecture.md, "What the removal emptied is filled on its support").
+    reveal_margin: float = 0.0
     virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)
     unseen: UnseenConfig = field(default_factory=UnseenConfig)
     refine: RefineConfig = field(default_factory=RefineConfig)
