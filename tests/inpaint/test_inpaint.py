@@ -571,3 +571,38 @@ def test_with_footprints_only_the_fill_and_the_footprints_surroundings_move(hole
     for p in PARAMS:
         assert torch.equal(getattr(final, p)[:k], getattr(static, p)), p
     assert not torch.equal(final.sh0[-len(new):], new.sh0)
+
+
+def test_a_thinned_surface_beside_the_hole_gives_the_fill_its_colour_not_a_darkening():
+    """A uniform floor (0.7, 0.5, 0.3) with a square removed and a ring around it thinned to low
+    opacity, as a removal leaves the surface around an object: the render there is the colour
+    darkened by alpha (Eq. 1 over black); what the 2D inpainter receives as context is the floor's
+    own colour, so it copies no darkening into the hole."""
+    g = np.arange(-2.5, 2.5 + 1e-9, 0.05)
+    x, y = np.meshgrid(g, g)
+    pts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
+    colour = np.array([0.7, 0.5, 0.3], np.float32)
+    floor = Gaussians.from_points(torch.tensor(pts, dtype=torch.float32), torch.tensor(np.tile(colour, (len(pts), 1))), sh_degree=0,
+                                  init_opacity=0.99, scales=torch.full((len(pts),), 0.0375))  # fmt: skip
+    floor.log_scales[:, 2] = math.log(1e-3)
+    hole = (floor.means[:, :2].abs() < 0.4).all(1)
+    ring = (floor.means[:, :2].abs() < 0.7).all(1) & ~hole
+    with torch.no_grad():
+        floor.opacity_logits[ring] = math.log(0.25 / 0.75)
+    edited = floor.subset(~hole)
+    cam = floor_cameras([0], w=48, h=36, f=36.0)[0]
+    mask = footprint(floor, hole, cam, 0.5)
+    o = render(edited, cam)
+    alpha = o.alpha.numpy()
+    thin = ~mask & (alpha >= 0.5) & (alpha < 0.97)
+    assert thin.sum() > 20 and (o.color.numpy()[thin].mean(0) < 0.95 * colour).all()  # the render is darker there
+    seen = {}
+
+    def fill(image, m):
+        seen["image"] = image.copy()
+        out = image.copy()
+        out[m] = colour
+        return out
+
+    inpaint_views(edited, [cam], [mask], fill, lambda d, m: np.where(m, 1.0, d), blend=False)
+    assert np.abs(seen["image"][thin] - colour).max() < 0.02

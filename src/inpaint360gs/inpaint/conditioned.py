@@ -96,6 +96,10 @@ def inpaint_views(
         alpha = o.alpha.numpy()
         mask = mask.astype(bool)
         valid = (alpha >= min_alpha) | mask
+        # the colour is Σ cαT over a black background (Eq. 1): where the removal left a surface thinned
+        # (0.5 <= alpha < 1), its colour is the render over alpha, not a darkening the fills would copy
+        thin = valid & ~mask & (alpha < 1.0)
+        color[thin] = (color[thin] / alpha[thin][:, None]).clip(0.0, 1.0)
         cond = np.zeros_like(mask)
         if condition and out and mask.any() and i in planes:
             cond = plane_transfer(cam, planes[i], mask, [(v, planes[j]) for j, v in enumerate(out) if j in planes], color, depth)
