@@ -84,13 +84,24 @@ def test_remove_object_refuses_bad_input_before_any_stage(tiny_scene, tmp_path):
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
-def test_the_workflow_trains_with_the_cpu_preset():
-    """workflow/config/config.yaml repeats the cpu preset's budget (Snakemake reads YAML): it must agree."""
+def test_the_workflow_trains_with_the_cpu_preset(tmp_path):
+    """workflow/config/config.yaml names the cpu preset and repeats none of its numbers; the planned
+    `inpaint360gs train` gets the preset's budget, and a value given in `train:` replaces it."""
     import yaml
 
     train = yaml.safe_load((SRC.parent / "workflow" / "config" / "config.yaml").read_text())["train"]
+    assert train["preset"] == "cpu" and not {"iterations", "max_gaussians", "backend"} & set(train)
     cpu = inpaint360gs.PRESETS["cpu"]
-    assert (train["iterations"], train["max_gaussians"], train["schedule_scale"], train["backend"]) == (cpu.iterations, cpu.max_gaussians, "auto", cpu.backend)
+
+    def planned(*extra):
+        cmd = [sys.executable, "-m", "snakemake", "-n", "-p", "--cores", "1", "--directory", str(SRC.parent), "--snakefile", str(SRC.parent / "Snakefile"),
+               "--config", f"data_dir={tmp_path}/data", f"out_dir={tmp_path}/out", f"results_dir={tmp_path}/res", "scenes=[cone]", "seeds=[0]", "methods=[]", *extra]
+        out = subprocess.run(cmd, capture_output=True, text=True, cwd=SRC.parent, timeout=120)
+        assert out.returncode == 0, out.stderr[-2000:]
+        return next(line for line in out.stdout.splitlines() if "inpaint360gs train " in line)
+
+    assert f"--iterations {cpu.iterations} --schedule-scale auto --max-gaussians {cpu.max_gaussians} --backend {cpu.backend} " in planned()
+    assert "--iterations 500 --schedule-scale auto --max-gaussians 0 --backend torch " in planned("train={preset: gpu, iterations: 500, schedule_scale: auto, backend: torch}")
 
 
 @pytest.mark.slow

@@ -12,6 +12,12 @@ OUT = config["out_dir"]
 RESULTS = config["results_dir"]
 THREADS = config["threads"]
 BACKEND = config["backend"]
+# 3DGS settings: the library's preset (defined once, inpaint360gs/pipeline/presets.py), each value
+# replaced by the one `train:` gives
+from inpaint360gs.pipeline.presets import get_preset
+
+_PRESET = get_preset(config["train"].get("preset", "cpu"))
+TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else getattr(_PRESET, k) for k in ("iterations", "max_gaussians", "backend")}
 
 
 def _synthetic_names():

@@ -11,16 +11,16 @@ rule train_3dgs:
     params:
         scene_dir=lambda wc: scene_dir(wc.scene),
         out=lambda wc: f"{OUT}/{wc.scene}/3dgs",
-        iterations=config["train"]["iterations"],
+        iterations=TRAIN["iterations"],
         schedule_scale=config["train"]["schedule_scale"],
-        max_gaussians=config["train"]["max_gaussians"],
-        backend=config["train"]["backend"],
-        extra=config["train"]["extra_args"],
+        max_gaussians=TRAIN["max_gaussians"],
+        backend=TRAIN["backend"],
+        extra=config["train"].get("extra_args", ""),
         seed=config["seed"],
     threads: THREADS
     resources:
         mem_mb=6000,
-        gpu=1 if config["train"]["backend"] == "gsplat" else 0,
+        gpu=1 if TRAIN["backend"] == "gsplat" else 0,
     log:
         f"{OUT}/logs/train_3dgs_{{scene}}.log",
     benchmark:
