@@ -30,6 +30,8 @@ class AssociationConfig:
     consolidate: bool = True  # after the pass, join objects that more views segmented as one than as two
 
     def resolved(self) -> AssociationConfig:
+        """A copy with the variant's ``sigma`` and ``keep_near`` filled in; raises :class:`InputError`
+        (naming the CLI option) for an unknown method, variant or comparison, or a value out of range."""
         if self.method not in ("kom", "tracker"):
             raise InputError(f"unknown association method {self.method!r} (kom, tracker)", "--method")
         if self.variant not in ("paper", "code"):

@@ -26,9 +26,11 @@ from inpaint360gs.io.scene import Scene
 
 @dataclass
 class Association:
+    """What :func:`associate` returns."""
+
     masks: dict[str, np.ndarray]  # view name -> (H, W) uint8 associated ids
     objects: list[dict]  # per object id: Gaussians in its set, views and pixels labelled
-    config: AssociationConfig
+    config: AssociationConfig  # the resolved settings used
 
 
 def associate(
@@ -36,7 +38,12 @@ def associate(
 ) -> Association:
     """Associate the raw segments of ``scene``'s training views (name -> (H, W) id image) into
     view-consistent object masks, processing views in capture (name) order. ``where``: the model's
-    file, named when the model covers no segment."""
+    file, named when the model covers no segment.
+
+    Args: ``segments`` view name -> (H, W) integer id image; ``cfg`` None = defaults.
+    Returns: :class:`Association`.
+    Raises: :class:`InputError` when a training view has no segments or segments of another size,
+    or the model covers no segment."""
     cfg = (cfg or AssociationConfig()).resolved()
     views = scene.train_views
     missing = [v.name for v in views if v.name not in segments]
@@ -93,7 +100,13 @@ def associate_stage(
     """Read the segment stage's output, associate, write ``out``; returns the association.
 
     The segments must be of this scene and of this model (docs/architecture.md, "Provenance chain"):
-    ``segment.json`` records the scene's content hash, ``--resize`` and the model's sha256."""
+    ``segment.json`` records the scene's content hash, ``--resize`` and the model's sha256.
+
+    Args: ``segment_dir`` the segment stage's folder; ``out`` the folder to write (absent or empty
+    unless ``overwrite``); ``cfg`` None = defaults; ``meta`` extra keys for ``objects.json``;
+    ``model_path`` the model's PLY, checked against what the segments record.
+    Raises: :class:`InputError` for a non-empty ``out``, a folder that is no segment output, or
+    segments of another scene or model."""
     from inpaint360gs.segment.stage import SEGMENT_JSON, read_segments
 
     t0 = time.perf_counter()

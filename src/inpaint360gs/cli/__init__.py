@@ -29,6 +29,7 @@ STAGES: dict[str, tuple[str, str]] = {
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Entry point of ``inpaint360gs``: dispatch ``argv`` to a stage's subcommand; returns the exit status."""
     return run_stages("inpaint360gs", STAGES, argv, __doc__.splitlines()[0])
 
 

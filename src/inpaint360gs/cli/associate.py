@@ -10,6 +10,7 @@ from inpaint360gs.cli.common import add_scene_arguments, check_apart, existing_d
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs associate``'s arguments to ``parser``."""
     from inpaint360gs.associate.config import AssociationConfig
 
     d = AssociationConfig()
@@ -36,6 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs associate`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.associate import AssociationConfig, associate_stage

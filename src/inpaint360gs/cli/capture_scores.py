@@ -10,6 +10,7 @@ import argparse
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs capture-scores``' arguments to ``parser``."""
     from inpaint360gs.cli.common import add_scene_arguments, add_threads_argument, existing_dir, existing_file, output_file
 
     parser.add_argument("scene", type=existing_dir, help="scene folder")
@@ -25,6 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs capture-scores`` with parsed ``args``; returns the exit status."""
     import json
 
     import numpy as np

@@ -40,6 +40,7 @@ class OneLineParser(argparse.ArgumentParser):
     """argparse with one-line usage errors: ``prog: error: message (see --help)``, exit 2."""
 
     def error(self, message: str):  # type: ignore[override]
+        """Exit with the input-error status and a one-line message pointing to ``--help``."""
         self.exit(EXIT_INPUT, f"{self.prog}: error: {message} (see --help)\n")
 
 
@@ -297,6 +298,7 @@ def add_scene_arguments(parser: argparse.ArgumentParser, *, llffhold: bool = Tru
 
 
 def add_threads_argument(parser: argparse.ArgumentParser) -> None:
+    """Add ``--threads`` (CPU threads for torch and numba; default: the usable cores) to ``parser``."""
     default = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     parser.add_argument("--threads", type=positive_int, default=default, help=f"CPU threads for torch and numba (default: {default}, the usable cores)")
 

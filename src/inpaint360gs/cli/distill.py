@@ -29,6 +29,7 @@ from inpaint360gs.distill.config import DistillConfig
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs distill``'s arguments to ``parser``."""
     d = DistillConfig()
     parser.add_argument("scene", type=existing_dir, help="scene folder (images/, sparse/0, ...)")
     parser.add_argument("model", type=existing_file, help="trained Gaussian PLY of this scene (e.g. 3dgs/point_cloud.ply)")
@@ -57,6 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> DistillConfig:
+    """The :class:`DistillConfig` the parsed ``args`` give."""
     return DistillConfig(
         iterations=args.iterations,
         feature_dim=args.feature_dim,
@@ -72,6 +74,7 @@ def config_from_args(args: argparse.Namespace) -> DistillConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs distill`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.core.errors import InputError
     from inpaint360gs.distill import distill
     from inpaint360gs.io.scene import load_scene

@@ -14,6 +14,7 @@ import argparse
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs evaluate``'s arguments to ``parser``."""
     from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, add_threads_argument, existing_dir, existing_file, output_file
     from inpaint360gs.metrics.weights import INCEPTION_ENV
 
@@ -32,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs evaluate`` with parsed ``args``; returns the exit status."""
     import json
 
     from inpaint360gs.cli.common import check_apart, set_threads

@@ -47,6 +47,7 @@ def add_inpaint_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def inpaint_config(args: argparse.Namespace, seed: int, backend: str):
+    """The :class:`InpaintConfig` the parsed inpainting ``args`` give, with ``seed`` and ``backend``."""
     from inpaint360gs.inpaint.refine import RefineConfig
     from inpaint360gs.inpaint.stage import InpaintConfig
     from inpaint360gs.views.virtual import VirtualViewsConfig
@@ -64,6 +65,7 @@ def inpaint_config(args: argparse.Namespace, seed: int, backend: str):
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs inpaint``'s arguments to ``parser``."""
     parser.add_argument("scene", type=existing_dir, help="scene folder")
     parser.add_argument("distill", type=existing_dir, help="output folder of `inpaint360gs distill`")
     parser.add_argument("removed", type=existing_dir, help="output folder of `inpaint360gs remove`")
@@ -78,6 +80,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs inpaint`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.distill.field import IdentityField
     from inpaint360gs.inpaint.stage import inpaint_from_removal
     from inpaint360gs.io.scene import load_scene

@@ -10,11 +10,13 @@ from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, a
 
 
 def add_click_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add the repeatable ``--click VIEW:X,Y`` and ``--id N`` object selectors to ``parser``."""
     parser.add_argument("--click", action="append", default=[], metavar="VIEW:X,Y", help="a pixel (column X, row Y, in the image as it lies in images/) inside the object in a training view; repeat for several objects (default: the clicks scene.json names)")
     parser.add_argument("--id", action="append", type=positive_int, default=[], help="an object id read off the rendered id map; repeatable")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs remove``'s arguments to ``parser``."""
     from inpaint360gs.remove.config import RemovalConfig
 
     d = RemovalConfig()
@@ -40,6 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs remove`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.io.atomic import check_output_dir
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.remove.config import RemovalConfig

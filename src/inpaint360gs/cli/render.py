@@ -23,6 +23,7 @@ from inpaint360gs.cli.common import (
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs render``'s arguments to ``parser``."""
     parser.add_argument("model", type=existing_file, help="Gaussian PLY (3DGS layout)")
     parser.add_argument("scene", type=existing_dir, help="scene folder whose cameras to render")
     parser.add_argument("out", type=output_dir, help="output folder (created atomically)")
@@ -37,6 +38,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs render`` with parsed ``args``; returns the exit status."""
     import warnings
 
     import torch

@@ -12,6 +12,7 @@ from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, a
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs run``'s arguments to ``parser``."""
     from inpaint360gs.cli.inpaint import add_inpaint_arguments
     from inpaint360gs.cli.remove import add_click_arguments
     from inpaint360gs.distill.config import DistillConfig
@@ -53,6 +54,7 @@ def run_config(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs run`` (every stage) with parsed ``args``; returns the exit status."""
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.pipeline.run import Runner
     from inpaint360gs.remove.select import Click

@@ -30,6 +30,7 @@ from inpaint360gs.segment.base import DEFAULT_SEGMENTER, segmenter_names
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs segment``'s arguments to ``parser``."""
     from inpaint360gs.segment.cluster3d import ClusterConfig
     from inpaint360gs.segment.oracle import OracleConfig
     from inpaint360gs.segment.sam import ENV_DECODER, ENV_ENCODER, SamConfig
@@ -64,6 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def make_segmenter(args: argparse.Namespace):
+    """The segmenter named by ``args.segmenter``, configured from the parsed ``args``."""
     from dataclasses import replace
 
     from inpaint360gs.segment.base import get_segmenter
@@ -91,6 +93,7 @@ def make_segmenter(args: argparse.Namespace):
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs segment`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.segment.stage import segment_scene
 

@@ -45,6 +45,7 @@ class _SubParser(OneLineParser):
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs table``'s subcommands (one per table kind) to ``parser``."""
     sub = parser.add_subparsers(dest="kind", metavar="KIND", required=True, parser_class=_SubParser)
     for kind, (title, _, _) in TABLES.items():
         p = sub.add_parser(kind, help=title, description=title)
@@ -120,6 +121,7 @@ def _run_paper(args: argparse.Namespace) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs table`` for the parsed ``args.kind``; returns the exit status."""
     if args.kind == "record":
         return _run_record(args)
     if args.kind == "paper":

@@ -26,6 +26,7 @@ def _schedule_scale(text: str) -> float | str:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs train``'s arguments to ``parser``."""
     d = TrainConfig()
     parser.add_argument("scene", type=existing_dir, help="scene folder (images/, sparse/0, ...)")
     parser.add_argument("out", type=output_dir, help="output folder (point_cloud.ply, metrics.json, config.yaml, train_log.csv, checkpoint.pt)")
@@ -63,6 +64,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def config_from_args(args: argparse.Namespace) -> TrainConfig:
+    """The :class:`TrainConfig` the parsed ``args`` give (``--schedule-scale auto`` = iterations / 30000)."""
     scale = args.schedule_scale
     if scale == "auto":
         scale = args.iterations / ORIGINAL_ITERATIONS
@@ -82,6 +84,7 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs train`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.gs.trainer import train
     from inpaint360gs.io.scene import load_scene
 

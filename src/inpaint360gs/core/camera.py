@@ -59,6 +59,7 @@ class Camera:
         return replace(self, fx=self.fx * sx, fy=self.fy * sy, cx=self.cx * sx, cy=self.cy * sy, width=w, height=h)
 
     def to(self, device: torch.device | str | None = None, dtype: torch.dtype | None = None) -> "Camera":
+        """A copy with R and t moved to ``device`` / cast to ``dtype``."""
         return replace(self, R=self.R.to(device=device, dtype=dtype), t=self.t.to(device=device, dtype=dtype))
 
     @staticmethod

@@ -15,6 +15,7 @@ SH_C0 = 0.28209479177387814  # Y_0^0, colour = SH_C0 * f_dc + 0.5 (3DGS conventi
 
 
 def num_sh_bases(degree: int) -> int:
+    """Number of SH coefficients per colour channel up to ``degree``: (degree + 1)^2."""
     return (degree + 1) ** 2
 
 
@@ -54,10 +55,12 @@ class Gaussians:
 
     @property
     def scales(self) -> torch.Tensor:
+        """(N, 3) scales, ``exp(log_scales)``."""
         return torch.exp(self.log_scales)
 
     @property
     def opacities(self) -> torch.Tensor:
+        """(N,) opacities in (0, 1), ``sigmoid(opacity_logits)``."""
         return torch.sigmoid(self.opacity_logits)
 
     @property
@@ -66,6 +69,7 @@ class Gaussians:
         return torch.cat([self.sh0, self.shN], dim=1)
 
     def tensors(self) -> dict[str, torch.Tensor]:
+        """Field name -> tensor, for every field that is not None."""
         return {f.name: getattr(self, f.name) for f in fields(self) if getattr(self, f.name) is not None}
 
     def map(self, fn) -> "Gaussians":
@@ -77,6 +81,7 @@ class Gaussians:
         return self.map(lambda t: t[index])
 
     def to(self, device=None, dtype=None) -> "Gaussians":
+        """A copy with every tensor moved to ``device`` / cast to ``dtype``."""
         return self.map(lambda t: t.to(device=device, dtype=dtype))
 
     @staticmethod

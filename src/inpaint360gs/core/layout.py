@@ -66,10 +66,12 @@ def is_test_name(name: str, prefix: str = TEST_PREFIX) -> bool:
 
 
 def is_image_name(name: str) -> bool:
+    """Whether ``name`` has an image suffix (case-insensitive)."""
     return Path(name).suffix.lower() in IMAGE_SUFFIXES
 
 
 def scaled_images_dir(resize: int) -> str:
+    """Name of the folder of the images downscaled by ``resize`` (``images_<resize>``)."""
     return f"{IMAGES_DIR}_{resize}"
 
 
@@ -88,32 +90,40 @@ class RunLayout:
 
     @property
     def gs(self) -> Path:  # trained 3DGS (point_cloud.ply, metrics.json, ...)
+        """The trained 3DGS folder."""
         return self.root / "3dgs"
 
     @property
     def segment(self) -> Path:  # raw per-view 2D masks
+        """The segment stage's folder."""
         return self.root / "segment"
 
     @property
     def associate(self) -> Path:  # view-consistent object masks + object list
+        """The association stage's folder."""
         return self.root / "associate"
 
     @property
     def distill(self) -> Path:  # Gaussians with identity features + classifier
+        """The distillation stage's folder."""
         return self.root / "distill"
 
     @property
     def removed(self) -> Path:  # edited scene after removal, AMCR masks
+        """The removal stage's folder."""
         return self.root / "removed"
 
     @property
     def inpainted(self) -> Path:  # final scene after 2D/3D inpainting
+        """The inpainting stage's folder."""
         return self.root / "inpainted"
 
     @property
     def renders(self) -> Path:  # renders of the final scene at the test_ cameras
+        """Renders of the final scene at the test cameras."""
         return self.inpainted / "renders" / "test"
 
     @property
     def model(self) -> Path:  # the 3DGS model the later stages read
+        """The trained 3DGS PLY."""
         return self.gs / "point_cloud.ply"

@@ -78,10 +78,12 @@ class Footprint:
         return inside_polygon_hull(self.outline, plane_coordinates(points, self.normal))
 
     def to_json(self) -> dict:
+        """JSON-ready dict (normal, offset, height, outline)."""
         return {"normal": self.normal.tolist(), "offset": self.offset, "height": self.height, "outline": self.outline.tolist()}
 
     @staticmethod
     def from_json(d: dict) -> "Footprint":
+        """Inverse of :meth:`to_json`."""
         return Footprint(np.asarray(d["normal"], dtype=np.float64), float(d["offset"]), np.asarray(d["outline"], dtype=np.float64), float(d["height"]))
 
     def _hull(self):

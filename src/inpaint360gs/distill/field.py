@@ -58,6 +58,7 @@ class IdentityField:
 
     @property
     def num_classes(self) -> int:
+        """Number of classifier classes (the distilled object ids)."""
         return len(self.object_ids)
 
     def _id_lut(self, device) -> torch.Tensor:
@@ -89,6 +90,7 @@ class IdentityField:
         return self.classify(self.gaussians.features)[1]
 
     def class_of(self, object_id: int) -> int:
+        """Classifier class index of ``object_id``; :class:`InputError` when it was not distilled."""
         if object_id not in self.object_ids:
             raise InputError(f"object id {object_id} is not one of the distilled ids {self.object_ids}", "object id")
         return self.object_ids.index(object_id)
@@ -112,6 +114,7 @@ class IdentityField:
 
 
 def classifier_dict(classifier: torch.nn.Linear, object_ids: Sequence[int]) -> dict:
+    """JSON-ready dict of the linear classifier (sizes, float32 weight and bias, the object id of each class)."""
     w = classifier.weight.detach().cpu().to(torch.float32)
     b = classifier.bias.detach().cpu().to(torch.float32)
     return {
@@ -124,6 +127,7 @@ def classifier_dict(classifier: torch.nn.Linear, object_ids: Sequence[int]) -> d
 
 
 def write_classifier(path: str | Path, classifier: torch.nn.Linear, object_ids: Sequence[int]) -> None:
+    """Write :func:`classifier_dict` to ``path`` as JSON, atomically."""
     write_text(path, json.dumps(classifier_dict(classifier, object_ids), indent=1) + "\n")
 
 

@@ -74,6 +74,7 @@ class Labels:
 
     @property
     def num_classes(self) -> int:
+        """Number of classes (object ids present in the masks)."""
         return len(self.class_ids)
 
     def sha256(self) -> str:

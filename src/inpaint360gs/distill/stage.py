@@ -51,9 +51,11 @@ MIN_COVERAGE = 0.01  # a model covering less of the training pixels (alpha >= 0.
 
 @dataclass
 class DistillResult:
-    field: IdentityField
+    """What :func:`distill` returns."""
+
+    field: IdentityField  # the model with its distilled features and the classifier
     report: dict  # what distill.json holds
-    out_dir: Path | None
+    out_dir: Path | None  # where it was written, None when not
 
 
 
@@ -143,6 +145,8 @@ class Distiller:
         self.timing["knn_and_setup"] = time.perf_counter() - t0
 
     def loss(self, out, target: Target, step: int):
+        """Cross-entropy of the classified features vs the view's labels, plus ``lambda_space`` times
+        the spatial (3D kNN) loss; returns (loss, logs)."""
         labels = target.data["labels"].long()
         logits = self.classifier(out.features.reshape(labels.shape[0], -1))
         ce = object_loss(logits, labels)
@@ -200,7 +204,12 @@ def distill(
 ) -> DistillResult:
     """Distill the masks in ``masks_dir`` (one ``<stem>.png`` id image per training view of ``scene``)
     into identity features of ``model`` (a Gaussians or a PLY path); ``objects`` = the object ids or
-    the association's ``objects.json``. Writes ``out_dir`` unless it is None."""
+    the association's ``objects.json``. Writes ``out_dir`` unless it is None.
+
+    Args: ``cfg`` None = defaults; ``overwrite`` replace a non-empty ``out_dir``; ``progress`` show a progress bar.
+    Returns: :class:`DistillResult`.
+    Raises: :class:`InputError` for invalid settings, a non-empty ``out_dir``, or masks and model not
+    made from this scene (or the association not from this model)."""
     from tqdm import tqdm
 
     t_start = time.perf_counter()

@@ -33,13 +33,13 @@ class DensifyConfig:
     max_world_size: float = 0.1  # ... or the largest scale exceeds this x scene extent (after 1st reset)
     densify_from: int = 500  # first step that may densify (exclusive)
     densify_until: int = 15_000  # statistics, densification and opacity resets stop here
-    densify_every: int = 100
-    opacity_reset_every: int = 3000
+    densify_every: int = 100  # steps between two densifications (not scaled, see ``scaled``)
+    opacity_reset_every: int = 3000  # steps between opacity resets
     opacity_reset_value: float = 0.01  # opacities are clamped to at most this at a reset
     # Not in the original (0 = no cap, its behaviour): at most this many Gaussians after a
     # densification; when the candidates would exceed it, those with the largest gradients win.
     # Bounds the per-step cost of a CPU run with a fixed time budget (cf. gsplat MCMC's cap_max).
-    max_gaussians: int = 0
+    max_gaussians: int = 0  # count, >= 0
 
     def scaled(self, scale: float) -> "DensifyConfig":
         """The same schedule for a run ``scale`` times as long as the original.
@@ -63,26 +63,26 @@ class DensifyConfig:
 class TrainConfig:
     """Everything that determines a 3DGS training run (with ``seed``, it is deterministic)."""
 
-    iterations: int = ORIGINAL_ITERATIONS
-    seed: int = 0
+    iterations: int = ORIGINAL_ITERATIONS  # optimiser steps, >= 1
+    seed: int = 0  # seeds the optimisation loop (view order, random backgrounds)
     backend: str = "auto"  # rasterizer backend: auto | torch | numba | gsplat
     # SH colour: degree raised by one every ``sh_degree_interval`` steps up to ``sh_degree``
-    sh_degree: int = 3
-    sh_degree_interval: int = 1000
-    init_opacity: float = 0.1
+    sh_degree: int = 3  # final SH degree, 0..3
+    sh_degree_interval: int = 1000  # steps
+    init_opacity: float = 0.1  # initial opacity of every Gaussian, in (0, 1)
     # Adam learning rates per parameter; positions decay exponentially and scale with the scene extent
-    means_lr_init: float = 1.6e-4
-    means_lr_final: float = 1.6e-6
-    means_lr_max_steps: int = ORIGINAL_ITERATIONS
-    sh0_lr: float = 2.5e-3
-    shN_lr: float = 2.5e-3 / 20
-    opacity_lr: float = 0.05
-    scales_lr: float = 5e-3
-    quats_lr: float = 1e-3
-    adam_eps: float = 1e-15
+    means_lr_init: float = 1.6e-4  # x scene extent, at step 0
+    means_lr_final: float = 1.6e-6  # x scene extent, at ``means_lr_max_steps``
+    means_lr_max_steps: int = ORIGINAL_ITERATIONS  # steps of the exponential decay
+    sh0_lr: float = 2.5e-3  # SH degree-0 (base colour) coefficients
+    shN_lr: float = 2.5e-3 / 20  # higher-degree SH coefficients
+    opacity_lr: float = 0.05  # opacity logits
+    scales_lr: float = 5e-3  # log scales
+    quats_lr: float = 1e-3  # quaternions (unnormalised)
+    adam_eps: float = 1e-15  # Adam epsilon
     # loss (1 - lambda) L1 + lambda (1 - SSIM)
-    ssim_lambda: float = 0.2
-    background: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    ssim_lambda: float = 0.2  # lambda above, in [0, 1]
+    background: tuple[float, float, float] = (0.0, 0.0, 0.0)  # RGB in [0, 1] behind the Gaussians
     random_background: bool = False  # a fresh uniform background colour each step
     densify: DensifyConfig = field(default_factory=DensifyConfig)
     schedule_scale: float = 1.0  # multiplies every step-based schedule field (see module docstring)
@@ -92,6 +92,7 @@ class TrainConfig:
     log_every: int = 50  # steps between rows of train_log.csv
 
     def validate(self) -> None:
+        """Raise :class:`InputError` (naming the CLI option) for a setting out of range."""
         from inpaint360gs.core.errors import InputError
 
         if self.iterations < 1:
@@ -121,12 +122,14 @@ class TrainConfig:
         )
 
     def to_dict(self) -> dict:
+        """JSON-ready dict of every field (nested ``densify``; ``background`` as a list)."""
         d = dataclasses.asdict(self)
         d["background"] = list(self.background)
         return d
 
     @staticmethod
     def from_dict(d: dict) -> "TrainConfig":
+        """Inverse of :meth:`to_dict`; raises TypeError for an unknown key."""
         d = dict(d)
         dens = DensifyConfig(**d.pop("densify", {}))
         if "background" in d:

@@ -168,9 +168,11 @@ class OptimizationLoop:
         return as_gaussians(self.params)
 
     def detached(self) -> Gaussians:
+        """The current Gaussians, detached and cloned."""
         return self.gaussians().map(lambda t: t.detach().clone())
 
     def state_dict(self) -> dict:
+        """Everything :meth:`load_state_dict` needs to resume: step, parameters, optimiser and module states."""
         return {
             "step": self.step_index,
             "params": {k: p.detach().clone() for k, p in self.params.items()},
@@ -186,6 +188,7 @@ class OptimizationLoop:
         }
 
     def load_state_dict(self, data: dict) -> None:
+        """Resume from a :meth:`state_dict`."""
         self.step_index = int(data["step"])
         self.params = {k: torch.nn.Parameter(t.to(self.device).clone(), requires_grad=k in self.schedules) for k, t in data["params"].items()}
         self.optimizers = make_optimizers(self.params, {k: self._lr(k, self.step_index) for k in self.schedules}, self.adam_eps)

@@ -34,6 +34,7 @@ def make_params(g: Gaussians, trainable: Iterable[str]) -> Params:
 
 
 def as_gaussians(params: Params) -> Gaussians:
+    """The parameters ``params`` (field name -> tensor) as a :class:`Gaussians`."""
     return Gaussians(**params)
 
 

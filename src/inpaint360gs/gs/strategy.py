@@ -40,6 +40,7 @@ class Strategy:
     """
 
     def initialize_state(self, n: int, device: torch.device | str = "cpu") -> dict[str, torch.Tensor]:
+        """Per-Gaussian running state for ``n`` Gaussians on ``device``; none by default."""
         return {}
 
     def step_post_backward(
@@ -65,6 +66,7 @@ class DensifyStrategy(Strategy):
         self.extent = float(scene_extent)
 
     def initialize_state(self, n: int, device: torch.device | str = "cpu") -> dict[str, torch.Tensor]:
+        """Zeroed per-Gaussian gradient sums, visibility counts and max 2D radii."""
         return {
             "grad2d": torch.zeros(n, device=device),  # accumulated NDC-space gradient norms
             "count": torch.zeros(n, device=device),  # steps each Gaussian was visible
@@ -85,6 +87,8 @@ class DensifyStrategy(Strategy):
         state["max_radii"][visible] = torch.maximum(state["max_radii"][visible], r)
 
     def step_post_backward(self, params, optimizers, state, step, out, camera, generator=None) -> DensifyStats:
+        """Accumulate the view-space gradients, then densify and prune and reset opacities on the 3DGS schedule; returns
+        what changed."""
         cfg = self.cfg
         stats = DensifyStats()
         if step >= cfg.densify_until:
@@ -107,6 +111,8 @@ class DensifyStrategy(Strategy):
         prune_big: bool,
         generator: torch.Generator | None = None,
     ) -> DensifyStats:
+        """Clone small and split large high-gradient Gaussians, then prune transparent ones (and, with ``prune_big``,
+        too large ones); returns the counts."""
         cfg = self.cfg
         n = params["means"].shape[0]
         grads = state["grad2d"] / state["count"].clamp_min(1)

@@ -52,10 +52,12 @@ LOG_FIELDS = [
 
 @dataclass
 class TrainResult:
+    """What :func:`train` returns."""
+
     gaussians: Gaussians  # final model (detached, CPU)
     metrics: dict  # what metrics.json holds
-    out_dir: Path
-    steps: int
+    out_dir: Path  # the run's folder
+    steps: int  # optimiser steps done in all (resumed ones included)
 
 
 def init_gaussians(scene: Scene, cfg: TrainConfig) -> Gaussians:
@@ -151,6 +153,7 @@ class Trainer:
 
     @property
     def step(self) -> int:
+        """Optimiser steps done so far."""
         return self.loop.step_index
 
     def _identity(self) -> dict:
@@ -252,6 +255,8 @@ class Trainer:
         return f"checkpoint was made with different settings ({', '.join(diff)}); start afresh (--overwrite) or match them"
 
     def run(self, *, resume: bool = False, overwrite: bool = False) -> TrainResult:
+        """Train to the end and write the outputs; ``resume``/``overwrite`` as in :func:`train`.
+        A failed run leaves its checkpoint (with log and config) or nothing."""
         from tqdm import tqdm
 
         self.t0 = time.perf_counter()
@@ -350,8 +355,20 @@ def train(
 ) -> TrainResult:
     """Train 3DGS on ``scene``'s training views and write the run's outputs to ``out_dir``.
 
-    ``resume`` continues from ``out_dir/checkpoint.pt`` when it exists (same settings required);
-    ``overwrite`` starts afresh over a previous run's files instead of refusing.
-    ``on_step(step, params)`` is called after every optimiser step (inspection and tests).
+    Args:
+        scene: The scene; its sparse points initialise the Gaussians, its holdout views are evaluated.
+        cfg: Training settings (validated; ``schedule_scale`` applied).
+        out_dir: The run's folder (created when absent).
+        resume: Continue from ``out_dir/checkpoint.pt`` when it exists (same scene content and settings required).
+        overwrite: Start afresh over a previous run's files instead of refusing.
+        progress: Show a progress bar.
+        on_step: ``on_step(step, params)`` after every optimiser step (inspection and tests).
+
+    Returns:
+        TrainResult: the final model (detached, CPU), what ``metrics.json`` holds, the folder, the steps.
+
+    Raises:
+        InputError: Invalid settings, a scene without sparse points, or a folder holding a previous
+            run (or a checkpoint of other settings) that ``resume``/``overwrite`` do not allow to use.
     """
     return Trainer(scene, cfg, out_dir, progress=progress, on_step=on_step).run(resume=resume, overwrite=overwrite)

@@ -275,6 +275,8 @@ class Inpainter:
     supports_depth: ClassVar[bool] = True
 
     def rgb(self, image, mask) -> np.ndarray:
+        """Fill the ``mask`` pixels of (H, W, 3) ``image`` in [0, 1]; returns a float copy. :class:`InputError` for a
+        depth-only inpainter or bad inputs."""
         img, m = check_rgb(image, mask)
         if not self.supports_rgb:
             raise InputError(f"the {self.name} inpainter fills depth only", "method")
@@ -284,6 +286,8 @@ class Inpainter:
         return _compose(img, m, self._fill_rgb(src, m))
 
     def depth(self, depth, mask) -> np.ndarray:
+        """Fill the ``mask`` pixels of (H, W) ``depth``; returns a float copy. :class:`InputError` for a colour-only
+        inpainter or bad inputs."""
         d, m = check_depth(depth, mask)
         if not self.supports_depth:
             raise InputError(f"the {self.name} inpainter fills colour only", "method")

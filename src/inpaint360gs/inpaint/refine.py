@@ -50,20 +50,22 @@ class RefineConfig:
     supervision: str = "hybrid"  # "hybrid" (Eq. 6) | "mask": ablation e)
     # LPIPS network of the loss. AlexNet: a step's forward + backward through it is far cheaper on CPU than
     # through VGG16 (results/README.md, "Metrics"); the evaluation uses VGG like the paper's code.
-    lpips_net: str = "alex"
+    lpips_net: str = "alex"  # "alex" | "vgg"
     lpips_margin: int = 8  # pixels around the mask's bounding box for the LPIPS crop
     crop_margin_px: int = 16  # each view is optimised on its mask's bounding box grown by max(this, crop_margin x its size)
-    crop_margin: float = 0.25
+    crop_margin: float = 0.25  # x the bounding box's size, >= 0
     # A step optimises a window of at most this many pixels a side of its view's crop, centred on a
     # random pixel of the mask (0: the whole crop): the cost of a step, dominated by LPIPS and SSIM,
     # stays bounded for a large hole (SPIn-NeRF also takes its perceptual loss on patches). Crops
     # smaller than this are used whole.
-    patch_px: int = 96
+    patch_px: int = 96  # pixels, >= 0
     region_margin: float = 0.5  # Gaussians within this x the region's diagonal of it train (see refine)
-    seed: int = 0
-    backend: str = "auto"
+    seed: int = 0  # seeds the optimisation loop (views, patch centres)
+    backend: str = "auto"  # rasterizer backend: auto | torch | numba | gsplat
 
     def resolved(self) -> RefineConfig:
+        """A copy with the variant's iterations and loss weights filled in; raises :class:`InputError`
+        for an unknown variant or supervision."""
         if self.variant not in ("paper", "code"):
             raise InputError(f"unknown 3D inpainting variant {self.variant!r} (paper, code)", "--refine-variant")
         if self.supervision not in ("hybrid", "mask"):
@@ -167,6 +169,7 @@ def patch_window(mask: torch.Tensor, size: int, gen: torch.Generator) -> tuple[i
 
 
 def crop_camera(cam: Camera, rect: tuple[int, int, int, int]) -> Camera:
+    """``cam`` restricted to the pixel rectangle ``rect`` = (x0, y0, x1, y1), x1 and y1 exclusive."""
     x0, y0, x1, y1 = rect
     return replace(cam, cx=cam.cx - x0, cy=cam.cy - y0, width=x1 - x0, height=y1 - y0)
 

@@ -51,30 +51,30 @@ class InpaintConfig:
     masks: str = "unseen"  # "unseen": geometric NBS masks; "footprint": the removed objects' whole footprint (baseline ii)
     condition: bool = True  # recursive conditioning; False: ablation d)
     init: str = "depth"  # "depth": depth-guided initialisation; "naive": ablation b); "none": no new Gaussians (baseline ii)
-    rgb_inpainter: str = DEFAULT_RGB  # 2D inpainters (inpaint.inpainters registry; why these defaults: CHANGELOG.md, History)
-    depth_inpainter: str = DEFAULT_DEPTH
+    rgb_inpainter: str = DEFAULT_RGB  # 2D colour inpainter by name (inpaint.inpainters registry)
+    depth_inpainter: str = DEFAULT_DEPTH  # 2D depth inpainter by name (same registry)
     lama_onnx: str | None = None  # LaMa checkpoint (ONNX) when an inpainter is "lama"
     occluders: bool = True  # take occluders out for inpainting, put them back after
-    occluder_min_pixels: int = 10
+    occluder_min_pixels: int = 10  # an object occludes when it hides at least this many pixels of the removed ones in one view
     # Start the recursion from a view straight above each removed object's footprint (the removal
     # stage's support plane), filled with ``support_inpainter``: the support is seen rectified there
     # (views.virtual.support_camera), so textures and straight borders continue across the hole,
     # and every later view inherits that fill through the conditioning. False: the trajectory alone.
     support_view: bool = True
-    support_inpainter: str = "shiftmap"
+    support_inpainter: str = "shiftmap"  # 2D inpainter of the support view, by name
     # With the removal's footprints, the scene's Gaussians that the 3D inpainting may adjust are those
     # within this x the footprint's size around it (footprint_rows); without, those near the removed
     # Gaussians (refine.RefineConfig.region_margin).
-    footprint_margin: float = 0.25
+    footprint_margin: float = 0.25  # x the footprint's size, >= 0
     # A surface the removal reveals off the support plane is filled (at its rendered depth), and new
     # Gaussians are kept, within this x the footprint's size of the footprint's column. 0: inside the
     # column only; beyond it the rendered depth is the 3DGS's uncertain one and fill Gaussians put
     # there show as smears from other views (docs/architecture.md, "What the removal emptied is filled on its support").
-    reveal_margin: float = 0.0
-    virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)
-    unseen: UnseenConfig = field(default_factory=UnseenConfig)
-    refine: RefineConfig = field(default_factory=RefineConfig)
-    backend: str = "auto"
+    reveal_margin: float = 0.0  # x the footprint's size, >= 0
+    virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)  # step 1: the virtual cameras
+    unseen: UnseenConfig = field(default_factory=UnseenConfig)  # the unseen (to be filled) masks
+    refine: RefineConfig = field(default_factory=RefineConfig)  # the 3D inpainting (Eq. 6); its seed also seeds the 2D inpainters
+    backend: str = "auto"  # rasterizer backend: auto | torch | numba | gsplat
 
 
 def _check_config(cfg: InpaintConfig) -> None:
@@ -442,7 +442,13 @@ def read_footprints(removed_dir: str | Path) -> list:
 
 
 def inpaint_from_removal(field_: IdentityField, removed_dir: str | Path, scene: Scene, out: str | Path, cfg: InpaintConfig | None = None, *, overwrite: bool = False, progress: bool = False) -> dict:
-    """The stage as ``inpaint360gs inpaint`` runs it: read the removal, inpaint, write ``out``."""
+    """The stage as ``inpaint360gs inpaint`` runs it: read the removal, inpaint, write ``out``.
+
+    Args: ``field_`` the distillation output the removal was made from; ``removed_dir`` the removal
+    stage's folder; ``cfg`` None = defaults; ``overwrite`` replace a non-empty ``out``.
+    Returns: what ``inpaint.json`` holds.
+    Raises: :class:`InputError` for a non-empty ``out``, a removal or distillation of another scene
+    (or not linked), or nothing to fill."""
     cfg = cfg or InpaintConfig()
     t0 = time.perf_counter()
     out = Path(out)

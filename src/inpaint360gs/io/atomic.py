@@ -170,5 +170,6 @@ def remove_tree(target: str | Path) -> None:
 
 
 def write_text(target: str | Path, text: str) -> None:
+    """Write ``text`` to ``target`` atomically (a temporary file renamed over it)."""
     with atomic_path(target) as tmp:
         tmp.write_text(text)

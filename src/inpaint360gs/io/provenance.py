@@ -42,22 +42,27 @@ class Record:
 
     @property
     def stage(self) -> str | None:
+        """The stage that wrote the record, or None."""
         return self.data.get("stage")
 
     @property
     def identity(self) -> str | None:
+        """The record's identity hash, or None."""
         return self.data.get("identity")
 
     @property
     def scene(self) -> dict:
+        """What the record says of its scene ({} when nothing)."""
         return self.data.get("scene") or {}
 
     @property
     def inputs(self) -> dict:
+        """The identities of the inputs, by name ({} when none)."""
         return self.data.get("inputs") or {}
 
     @property
     def outputs(self) -> dict:
+        """The outputs' hashes, by file ({} when none)."""
         return self.data.get("outputs") or {}
 
     @property
@@ -68,6 +73,7 @@ class Record:
 
 
 def short(digest: object) -> str:
+    """The first 12 characters of a digest string, for messages; ``str()`` of anything else."""
     return digest[:12] if isinstance(digest, str) else str(digest)
 
 

@@ -52,10 +52,12 @@ class View:
 
     @property
     def stem(self) -> str:
+        """The image file name without its suffix."""
         return Path(self.name).stem
 
     @property
     def is_test(self) -> bool:
+        """Whether the view is a test view."""
         return self.split == "test"
 
 
@@ -75,17 +77,21 @@ class Scene:
 
     @property
     def name(self) -> str:
+        """The scene folder's name."""
         return self.root.name
 
     def split(self, split: Split) -> list[View]:
+        """The views of ``split``, in scene order."""
         return [v for v in self.views if v.split == split]
 
     @property
     def train_views(self) -> list[View]:
+        """The training views."""
         return self.split("train")
 
     @property
     def holdout_views(self) -> list[View]:
+        """The views held out of training (every ``llffhold``-th)."""
         return self.split("holdout")
 
     @property
@@ -101,6 +107,7 @@ class Scene:
         return bool(self.test_views) and self.info.get(layout.GROUND_TRUTH_KEY) is not False
 
     def view(self, name: str) -> View:
+        """The view named ``name`` (file name or stem); :class:`InputError` when there is none."""
         for v in self.views:
             if v.name == name or v.stem == name:
                 return v
@@ -129,6 +136,7 @@ class Scene:
         return to_float(self.load_image_raw(view, allow_test=allow_test))
 
     def has_mask(self, view: View, kind: str = "unseen_mask") -> bool:
+        """Whether ``view`` has a mask of ``kind`` loaded."""
         return view.name in self.masks.get(kind, {})
 
     def load_mask(self, view: View, kind: str = "unseen_mask") -> np.ndarray:

@@ -125,6 +125,7 @@ class LPIPSNet(nn.Module):
             return self.features(x)
 
     def forward(self, a: torch.Tensor, b: torch.Tensor) -> list[torch.Tensor]:
+        """Per-layer (N, 1, h_l, w_l) distance maps between image batches ``a`` and ``b``."""
         return self.layer_maps(*self.pair_features(a, b))
 
 

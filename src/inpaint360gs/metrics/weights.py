@@ -53,6 +53,7 @@ class NumpyOnlyUnpickler(pickle.Unpickler):
     """Unpickler for nested containers of numpy arrays: any other global is refused."""
 
     def find_class(self, module: str, name: str):
+        """Allow only the numpy globals an array needs; :class:`pickle.UnpicklingError` for anything else."""
         make = _ALLOWED_GLOBALS.get((module, name))
         if make is None:
             raise pickle.UnpicklingError(f"refusing to load global {module}.{name} (only numpy arrays are allowed in a weights file)")

@@ -42,6 +42,7 @@ class RemovalResult:
 
     @property
     def layout(self) -> RunLayout:
+        """The run folder's layout (where each stage writes)."""
         return RunLayout(self.out)
 
     @property

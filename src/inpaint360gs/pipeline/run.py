@@ -55,15 +55,15 @@ def check_run_folder(out: Path) -> None:
 class RunConfig:
     """Every setting of a run; each stage's part is that stage's own config."""
 
-    train: TrainConfig = field(default_factory=TrainConfig)
-    segmenter: str = "geometric"
-    segmenter_options: dict = field(default_factory=dict)
-    association: AssociationConfig = field(default_factory=AssociationConfig)
+    train: TrainConfig = field(default_factory=TrainConfig)  # 3DGS training (stage "train")
+    segmenter: str = "geometric"  # 2D segmenter by name (segment.base.get_segmenter)
+    segmenter_options: dict = field(default_factory=dict)  # keyword options of that segmenter's config
+    association: AssociationConfig = field(default_factory=AssociationConfig)  # Key Object Management (stage "associate")
     distill: object = None  # DistillConfig (default when None)
-    removal: RemovalConfig = field(default_factory=RemovalConfig)
-    inpaint: InpaintConfig = field(default_factory=InpaintConfig)
-    seed: int = 0
-    backend: str = "auto"
+    removal: RemovalConfig = field(default_factory=RemovalConfig)  # object selection and removal (stage "remove")
+    inpaint: InpaintConfig = field(default_factory=InpaintConfig)  # virtual views, 2D and 3D inpainting (stage "inpaint")
+    seed: int = 0  # the run's seed (presets give it to each stage's config); part of the segment signature
+    backend: str = "auto"  # rasterizer backend of the remove stage: "auto", "torch", "numba" or "gsplat"
 
 
 
@@ -93,7 +93,22 @@ def scene_clicks(scene: Scene) -> list[Click]:
 
 
 class Runner:
-    """One run of the method on ``scene`` into ``out`` (see the module docstring)."""
+    """One run of the method on ``scene`` into ``out`` (see the module docstring).
+
+    Args:
+        scene: The scene to work on.
+        out: The run's folder: absent, empty, or an earlier run's.
+        cfg: Every stage's settings.
+        model: A trained 3DGS PLY of the scene; the train stage is then skipped.
+        clicks: Clicks on the object to remove; default: ``scene.json``'s (unless ``ids`` are given).
+        ids: Object ids to remove besides the clicked ones.
+        progress: Show progress bars.
+        announce: Print what each stage does before it starts.
+
+    Raises:
+        InputError: The model file is missing, there is no object to remove, a click lies outside its
+            view, or ``out`` holds something no stage writes.
+    """
 
     def __init__(self, scene: Scene, out: str | Path, cfg: RunConfig, *, model: str | Path | None = None, clicks: list[Click] | None = None, ids: list[int] | None = None, progress: bool = True,
                  announce: bool = False):
@@ -130,10 +145,12 @@ class Runner:
 
     @property
     def model_file(self) -> Path:
+        """The 3DGS PLY the later stages read: the given model, else the one trained into the run."""
         return self.model_path if self.model_path is not None else self.layout.model
 
     # --- signatures: what determines each stage's output ------------------------------------------
     def signatures(self) -> dict[str, str]:
+        """Each stage's signature (hex SHA-256 of what determines its output), by stage name."""
         c = self.cfg
         sig = {}
         model_id = ("given", sha256_file(self.model_path)) if self.model_path is not None else ("trained", _settings(c.train))
@@ -153,6 +170,7 @@ class Runner:
         }[stage]  # fmt: skip
 
     def up_to_date(self, stage: str, sig: str) -> bool:
+        """Whether ``stage`` was recorded with signature ``sig`` and its main output file exists."""
         return self.record.get(stage) == sig and self._outputs(stage).is_file()
 
     def _folder(self, stage: str) -> Path:
@@ -179,7 +197,11 @@ class Runner:
 
     # --- the stages -------------------------------------------------------------------------------
     def run(self, until: str = "inpaint") -> list[tuple[str, str]]:
-        """Run the stages up to ``until``; returns (stage, "ran" | "up to date") pairs."""
+        """Run the stages up to ``until`` (one of :data:`STAGES`), skipping those up to date.
+
+        Returns: (stage, "ran" | "up to date" | "given") pairs, in order.
+        Raises: :class:`InputError` for an unknown ``until``, and whatever a stage raises (the
+        stages before it stay recorded)."""
         if until not in STAGES:
             raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", "--until")
         sigs = self.signatures()

@@ -58,8 +58,13 @@ def removal_stage(
     overwrite: bool = False,
     meta: dict | None = None,
 ) -> dict:
-    """Select (clicks and/or ids), remove, write ``out`` (docs/architecture.md, "Stage outputs");
-    returns what ``removal.json`` holds."""
+    """Select (clicks and/or ids), remove, write ``out`` (docs/architecture.md, "Stage outputs").
+
+    Args: ``field_`` the distillation output; ``clicks`` on the object, in ``images/`` pixels; ``ids``
+    object ids to remove besides; ``cfg`` None = defaults; ``backend`` the rasterizer (:func:`render`);
+    ``overwrite`` replace a non-empty ``out``; ``meta`` extra keys for ``removal.json``.
+    Returns: what ``removal.json`` holds.
+    Raises: :class:`InputError` for a non-empty ``out`` or a click that selects nothing."""
     cfg = cfg or RemovalConfig()
     check_output_dir(out, overwrite)  # before any work
     t0 = time.perf_counter()

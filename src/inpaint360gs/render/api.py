@@ -21,6 +21,8 @@ from inpaint360gs.render.sh import sh_to_rgb
 
 @dataclass
 class RenderOutput:
+    """What :func:`render` returns; H, W from the camera, N Gaussians, F feature channels."""
+
     color: torch.Tensor  # (H, W, 3) = sum_i c_i a_i T_i + T_final * background
     depth: torch.Tensor  # (H, W) = sum_i z_i a_i T_i (paper Eq. 5; NOT divided by alpha)
     alpha: torch.Tensor  # (H, W) = 1 - T_final
@@ -73,7 +75,34 @@ def render(
     far: float = 1e10,
     eps2d: float = 0.3,
 ) -> RenderOutput:
-    """Render colour, depth (Eq. 5), alpha and optionally features (Eq. 2); differentiable w.r.t. every Gaussian parameter."""
+    """Render colour, depth (Eq. 5), alpha and optionally features (Eq. 2) of Gaussians from one camera.
+
+    Differentiable w.r.t. every Gaussian parameter; ``means2d`` of the output keeps its gradient.
+
+    Args:
+        gaussians: N Gaussians: means (N, 3), log_scales (N, 3), quats (N, 4) (w, x, y, z),
+            opacity_logits (N,), sh0 (N, 1, 3), shN (N, K-1, 3), features (N, F) if ``with_features``.
+        camera: Pinhole camera (world -> camera R, t; fx, fy, cx, cy, width, height in pixels);
+            moved to the Gaussians' device and dtype.
+        sh_degree: SH degree to evaluate, 0..``gaussians.sh_degree``; None = all the coefficients hold.
+        background: (3,) RGB composited under the residual transmittance; None = black.
+        with_features: Also composite ``gaussians.features`` into ``RenderOutput.features``.
+        backend: Rasterizer: "auto" (best available for the device and dtype), "torch", "numba" or
+            "gsplat"; a CUDA backend asked for CPU tensors falls back to "auto".
+        near: Camera-space z (scene units) at or below which a Gaussian is culled.
+        far: Camera-space z (scene units) at or beyond which a Gaussian is culled.
+        eps2d: Low-pass dilation added to the 2D covariance diagonal, in pixels^2.
+
+    Returns:
+        RenderOutput: color (H, W, 3), depth (H, W) (Eq. 5, not divided by alpha), alpha (H, W),
+        features (H, W, F) or None, and per-Gaussian means2d (N, 2) pixels, radii (N,) int pixels
+        (0 = culled), depths (N,) camera-space z.
+
+    Raises:
+        InputError: A Gaussian tensor, the features, the camera or the background has the wrong
+            shape or value; ``sh_degree`` is out of range; the backend is unknown, unavailable, or
+            runs on another device.
+    """
     g = gaussians
     _check_inputs(g, camera, background, with_features)
     degree = g.sh_degree if sh_degree is None else sh_degree

@@ -75,6 +75,7 @@ def backend_names() -> list[str]:
 
 
 def backend_choices() -> list[str]:
+    """What ``--backend`` accepts: "auto" and every registered name."""
     return ["auto", *backend_names()]
 
 
@@ -84,6 +85,7 @@ def available_backends() -> list[str]:
 
 
 def get_backend(name: str) -> RasterizerBackend:
+    """The backend registered as ``name``; :class:`InputError` for an unknown name."""
     reg = _registry()
     if name not in reg:
         raise InputError(f"unknown rasterizer backend {name!r}; choose one of {', '.join(backend_choices())}", "backend")

@@ -47,10 +47,12 @@ class Contributions:
 
     @property
     def nnz(self) -> int:
+        """Number of stored (pixel, Gaussian) weights."""
         return int(self.cols.shape[0])
 
     @property
     def nbytes(self) -> int:
+        """Bytes held by the sparse arrays."""
         return sum(t.element_size() * t.numel() for t in (self.indptr, self.cols, self.vals))
 
     def rows(self) -> torch.Tensor:

@@ -51,9 +51,11 @@ class GsplatBackend(RasterizerBackend):
     device_type = "cuda"
 
     def available(self) -> bool:
+        """True when gsplat imports and CUDA is available."""
         return importlib.util.find_spec("gsplat") is not None and torch.cuda.is_available()
 
     def rasterize(self, splats, channels):
+        """See :meth:`RasterizerBackend.rasterize` (gsplat's CUDA kernels)."""
         return rasterize_to_pixels_gsplat(splats, channels)
 
 

@@ -87,12 +87,15 @@ class NumbaBackend(RasterizerBackend):
     device_type = "cpu"
 
     def available(self) -> bool:
+        """True when numba imports."""
         return importlib.util.find_spec("numba") is not None
 
     def rasterize(self, splats, channels):
+        """See :meth:`RasterizerBackend.rasterize` (numba CPU kernels)."""
         return rasterize_to_pixels_numba(splats, channels)
 
     def project_and_shade(self, gaussians, sh, camera, degree, *, near, far, eps2d):
+        """See :meth:`RasterizerBackend.project_and_shade` (fused numba CPU kernels)."""
         # the same maths as projection.py + sh.py in one fused CPU kernel pair (why: numba_projection.py)
         from inpaint360gs.render.numba_projection import project_and_shade_numba
 

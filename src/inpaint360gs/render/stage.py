@@ -33,7 +33,10 @@ def render_views(
     meta: dict | None = None,
 ) -> dict:
     """Render ``views`` into ``out`` (atomically); returns what ``render.json`` holds plus ``empty_views``,
-    the number of views where no pixel is covered (alpha < 1/255 everywhere). ``meta`` goes into render.json."""
+    the number of views where no pixel is covered (alpha < 1/255 everywhere). ``meta`` goes into render.json.
+
+    ``sh_degree``, ``background`` and ``backend`` are passed to :func:`render`.
+    Raises: :class:`InputError` for a non-empty ``out`` without ``overwrite``, and what :func:`render` raises."""
     scales, empty = {}, 0
     with atomic_dir(out, overwrite=overwrite) as tmp:
         for v in tqdm(views, desc="render", disable=not (views and progress)):

@@ -94,9 +94,11 @@ class TorchBackend(RasterizerBackend):
     auto_dtypes = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
 
     def available(self) -> bool:
+        """Always True."""
         return True
 
     def rasterize(self, splats, channels):
+        """See :meth:`RasterizerBackend.rasterize` (pure torch)."""
         return rasterize_to_pixels_torch(splats, channels)
 
 

@@ -223,6 +223,8 @@ def _segmenters(groups) -> list[str]:
 
 
 def table1(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
+    """Paper Tab. 1 from run records: metrics averaged over the runs common to every method, with bootstrap intervals
+    ``boot``."""
     notes: list[str] = []
     kinds = ("baseline", "method")
     recs = _without_metrics(records, kinds, notes)
@@ -355,6 +357,7 @@ def table3(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
 
 
 def per_scene_table(records: list[dict]) -> Table:
+    """Every run's metrics, one row per (scene, method, seed)."""
     notes: list[str] = []
     table = Table(
         "per_scene", "Per-scene results of every run (scene, method, seed)",
@@ -459,6 +462,7 @@ def _runtime_notes(stages: list[str]) -> list[str]:
 
 
 def table2(records: list[dict]) -> Table:
+    """Paper Tab. 2 from run records: runtime and model size per method, averaged over runs."""
     notes: list[str] = []
     groups, common, stages = _runtime_setup(records, notes)
     table = Table("table2_runtime", "Runtime and model size per method, averaged over runs (paper Tab. 2)",
@@ -478,6 +482,7 @@ def table2(records: list[dict]) -> Table:
 
 
 def table2_detail(records: list[dict]) -> Table:
+    """Runtime of every stage per scene (mean over seeds) and its average per method."""
     notes: list[str] = []
     groups, common, stages = _runtime_setup(records, notes)
     table = Table("table2_runtime_detail", "Runtime of every stage per scene (mean over its seeds) and its average per method (paper supp. Detailed Runtime)",

@@ -57,6 +57,7 @@ def _cells(table: Table, bold, escape) -> tuple[list[str], list[list[str]]]:
 
 
 def to_csv(table: Table) -> str:
+    """``table`` as CSV text: label columns, each metric column with its statistics, the note column."""
     cols = [k for k, _ in table.labels]
     for c in table.columns:
         cols.append(c.key)
@@ -104,6 +105,7 @@ _TEX_SPECIAL = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "
 
 
 def tex_escape(s: str) -> str:
+    """``s`` with LaTeX's special characters escaped."""
     return "".join(_TEX_SPECIAL.get(ch, ch) for ch in s)
 
 

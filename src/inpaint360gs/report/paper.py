@@ -50,6 +50,7 @@ TABLES = (("per_scene", per_scene_table), ("table1_average", table1), ("table3_a
 
 
 def output_names() -> list[str]:
+    """The file names the paper tables are written to (CSV, Markdown, LaTeX each, and provenance.json)."""
     return [f"{name}.{ext}" for name, _ in TABLES for ext in ("csv", "md", "tex")] + ["provenance.json"]
 
 

@@ -34,6 +34,7 @@ def git_commit() -> str:
 
 
 def provenance_line() -> str:
+    """One line naming the git commit, the UTC time and the machine."""
     now = _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return f"commit {git_commit()}, {now}, {platform.machine()} {platform.processor() or ''}".strip()
 
@@ -68,6 +69,8 @@ def _machine() -> dict:
 
 
 def read_config(path: str | Path | None) -> dict | None:
+    """A config YAML's path, sha256, text and parsed content (None for no path); :class:`InputError` when unreadable or
+    not YAML."""
     if path is None:
         return None
     import yaml
@@ -86,6 +89,8 @@ def read_config(path: str | Path | None) -> dict | None:
 
 
 def provenance(records: list[dict], config: dict | None, seeds: list[int] | None, outputs: list[str], boot: Bootstrap = Bootstrap()) -> dict:
+    """What ``provenance.json`` holds: weights files used, seeds and their source, the config, the outputs, the
+    bootstrap settings."""
     weights: dict[tuple[str, str], dict] = {}
     for r in records:
         for name, info in (r.get("weights") or {}).items():

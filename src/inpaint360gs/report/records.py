@@ -111,6 +111,8 @@ def parse_labels(items: list[str]) -> dict[str, str]:
 
 
 def check_labels(labels: object, where: str) -> dict[str, str]:
+    """``labels`` after checking it is a dict of non-empty strings with the required keys, a known kind and an integer
+    seed; else :class:`InputError`."""
     if not isinstance(labels, dict):
         raise InputError("labels must be a JSON object", where)
     for k in REQUIRED_LABELS:
@@ -224,6 +226,7 @@ def read_benchmark(path: str | Path) -> dict:
 
 
 def parse_stage(item: str) -> tuple[str, Path]:
+    """Split a ``NAME=BENCH.tsv`` argument into (name, path); :class:`InputError` when malformed."""
     name, sep, path = item.partition("=")
     if not sep or not _NAME.match(name.strip()) or not path:
         raise InputError(f"expected NAME=BENCH.tsv, got {item!r}", "--stage")
@@ -231,6 +234,7 @@ def parse_stage(item: str) -> tuple[str, Path]:
 
 
 def read_models(paths: list[str | Path]) -> dict:
+    """Size of each model PLY and in all (bytes, MB); :class:`InputError` for a missing or non-PLY file."""
     files, total = [], 0
     for path in paths:
         p = Path(path)

@@ -48,6 +48,7 @@ class Interval:
     n: int
 
     def excludes_zero(self) -> bool:
+        """Whether both bounds exist and lie on the same side of zero."""
         return self.low is not None and self.high is not None and (self.low > 0 or self.high < 0)
 
     def verdict(self, direction: int) -> str:

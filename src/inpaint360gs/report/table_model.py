@@ -27,6 +27,7 @@ class Bootstrap:
     seed: int = stats.BOOTSTRAP_SEED
 
     def kw(self) -> dict:
+        """The settings as keyword arguments (confidence, resamples, seed)."""
         return {"confidence": self.confidence, "resamples": self.resamples, "seed": self.seed}
 
 

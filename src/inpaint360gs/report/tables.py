@@ -73,6 +73,8 @@ def table_with_average(rows: list[dict], columns: dict[str, str], index: str = "
 
 
 def write_tables(df: pd.DataFrame, csv: str | Path | None, md: str | Path | None, title: str, floatfmt: str) -> None:
+    """Write ``df`` as CSV to ``csv`` and as Markdown (with ``title`` and a provenance line) to ``md``, each when not
+    None."""
     if csv is not None:
         with atomic_path(csv) as tmp:
             df.to_csv(tmp, float_format="%.6g")

@@ -63,6 +63,7 @@ class Segmenter(ABC):
 
 
 def segmenter_names() -> list[str]:
+    """Every registered segmenter name."""
     return list(SEGMENTERS)
 
 

@@ -70,6 +70,7 @@ class ClusterConfig:
     grow_rounds: int = 2  # repeat so chains of faint Gaussians join too
 
     def validate(self) -> None:
+        """Raise :class:`InputError` (naming the field) for a setting out of range."""
         for name, v in asdict(self).items():
             if not np.isfinite(v) or v < 0:
                 raise InputError(f"geometric segmenter setting {name} must be a finite number >= 0, got {v}", name)
@@ -92,9 +93,11 @@ class Clusters:
 
     @property
     def count(self) -> int:
+        """Number of clusters (labels are 1..count, 0 = none)."""
         return int(self.labels.max()) if self.labels.size else 0
 
     def sizes(self) -> list[int]:
+        """Number of members of each cluster 1..count."""
         return np.bincount(self.labels, minlength=self.count + 1)[1:].tolist()
 
 

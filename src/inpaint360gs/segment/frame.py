@@ -47,6 +47,7 @@ class SceneFrame:
         return np.linalg.norm(d - np.outer(d @ self.up, self.up), axis=1)
 
     def to_json(self) -> dict:
+        """JSON-ready dict of the frame (rounded)."""
         return {
             "up": [round(float(v), 6) for v in self.up],
             "look_at": [round(float(v), 6) for v in self.look_at],

@@ -59,6 +59,7 @@ class GeometricConfig:
     backend: str = "auto"  # rasterizer of the label renders
 
     def validate(self) -> None:
+        """Raise :class:`InputError` (naming the field) for a setting out of range."""
         self.cluster.validate()
         if not 0.0 < self.min_weight <= 1.0:
             raise InputError(f"min_weight must be in (0, 1], got {self.min_weight}", "min_weight")
@@ -68,6 +69,7 @@ class GeometricConfig:
             raise InputError(f"min_segment_px must be >= 0, got {self.min_segment_px}", "min_segment_px")
 
     def to_dict(self) -> dict:
+        """Every field, JSON-ready."""
         return asdict(self)
 
 
@@ -86,6 +88,7 @@ class GeometricSegmenter(Segmenter):
         self._model: Gaussians | None = None
 
     def prepare(self, scene, model: Gaussians | None) -> None:
+        """Cluster the model's Gaussians into objects in 3D; :class:`InputError` without a model."""
         if model is None:
             raise InputError("the geometric segmenter needs the trained 3DGS model", "MODEL")
         cfg, cc = self.config, self.config.cluster
@@ -129,15 +132,18 @@ class GeometricSegmenter(Segmenter):
         return np.where((top >= self.config.min_weight * alpha) & (top > 1e-6), best + 1, 0).astype(np.int32)
 
     def segment(self, view, image: torch.Tensor) -> np.ndarray:
+        """(H, W) id image of ``view``: the 3D clusters rendered, split into connected pieces."""
         cam = view.camera
         labels = self.label_image(cam)
         min_px = self.config.min_segment_px or max(4, round(1e-4 * cam.width * cam.height))
         return split_components(labels, min_px, self.config.min_piece_fraction)
 
     def settings(self) -> dict:
+        """The configuration, as a dict."""
         return self.config.to_dict()
 
     def summary(self) -> dict:
+        """The scene frame and the clusters found ({} before :meth:`prepare`)."""
         if self.frame is None or self.clusters is None:
             return {}
         c = self.clusters

@@ -54,6 +54,7 @@ class OracleConfig:
     min_part_px: int = 0  # components below this vanish; 0 = 2e-4 of the image (>= 4 px)
 
     def validate(self) -> None:
+        """Raise :class:`InputError` (naming the field) for a setting out of range."""
         for name in ("split_prob", "merge_prob"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
@@ -149,6 +150,7 @@ class OracleSegmenter(Segmenter):
         self._files: dict[str, Path] = {}
 
     def prepare(self, scene, model) -> None:
+        """Find each training view's ground-truth instance mask; :class:`InputError` when one is missing."""
         folder = Path(scene.root) / GT_DIR / INSTANCE_DIR
         if not folder.is_dir():
             raise InputError(f"the oracle segmenter needs ground-truth instance masks ({GT_DIR}/{INSTANCE_DIR}/, synthetic scenes only)", folder)
@@ -161,6 +163,7 @@ class OracleSegmenter(Segmenter):
             self._files[v.name] = p
 
     def segment(self, view, image: torch.Tensor) -> np.ndarray:
+        """The view's ground-truth instance mask, damaged as configured (seeded per view)."""
         if view.name not in self._files:
             raise RuntimeError("OracleSegmenter.prepare() must run before segment()")
         gt = resize_mask(read_mask(self._files[view.name]), view.camera.width, view.camera.height)  # nearest: no new ids
@@ -168,4 +171,5 @@ class OracleSegmenter(Segmenter):
         return damage(gt, self.config, rng)
 
     def settings(self) -> dict:
+        """The configuration, as a dict."""
         return asdict(self.config)

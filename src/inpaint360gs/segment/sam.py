@@ -64,6 +64,7 @@ class SamConfig:
     image_size: int = 1024  # encoder input side when the ONNX file leaves it dynamic
 
     def validate(self) -> None:
+        """Raise :class:`InputError` for a setting out of range."""
         if self.points_per_side < 1 or self.image_size < 1 or self.min_mask_region_area < 0:
             raise InputError("points_per_side and image_size must be >= 1, min_mask_region_area >= 0")
         for name in ("pred_iou_thresh", "stability_score_thresh", "box_nms_thresh"):
@@ -152,6 +153,7 @@ class SamSegmenter(Segmenter):
     # --- model files --------------------------------------------------------------------------------
 
     def prepare(self, scene, model) -> None:
+        """Open the SAM encoder and decoder ONNX sessions and check their inputs."""
         enc_path, dec_path = self.config.paths()
         self._enc, self._dec = _session(enc_path), _session(dec_path)
         self._enc_path, self._dec_path = enc_path, dec_path
@@ -252,6 +254,7 @@ class SamSegmenter(Segmenter):
         return masks
 
     def segment(self, view, image: torch.Tensor) -> np.ndarray:
+        """(H, W) uint16 id image of SAM's automatic masks of ``image``."""
         rgb8 = (image.clamp(0, 1) * 255 + 0.5).to(torch.uint8).numpy()
         masks = self.generate(rgb8)
         if not masks:
@@ -259,6 +262,7 @@ class SamSegmenter(Segmenter):
         return flatten_masks(masks)
 
     def settings(self) -> dict:
+        """The configuration, plus the model files once prepared."""
         d = asdict(self.config)
         if self._dec is not None:
             d.update(encoder=str(self._enc_path), decoder=str(self._dec_path), encoder_input_side=self._side)

@@ -69,7 +69,12 @@ def segment_scene(
     check_model: bool = True,
 ) -> dict:
     """Segment every training view of ``scene`` into ``out`` (see the module docstring); returns
-    what segment.json holds. ``model`` may be None for a segmenter that does not use it."""
+    what segment.json holds. ``model`` may be None for a segmenter that does not use it.
+
+    Args: ``model_path`` the model's PLY, checked to be of this scene and recorded; ``overwrite``
+    replace a non-empty ``out``; ``check_model`` refuse a model that does not reproduce the views.
+    Raises: :class:`InputError` for a non-empty ``out``, a missing or mismatched model, or a segmenter
+    returning an id image of the wrong shape or type."""
     check_output_dir(out, overwrite)  # before any work
     views = scene.train_views
     t0 = time.perf_counter()
