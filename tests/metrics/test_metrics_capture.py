@@ -9,7 +9,7 @@ from inpaint360gs.metrics.capture import grow, psnr_outside, standing_share, tex
 
 def test_psnr_outside_ignores_the_grown_footprint():
     rng = np.random.default_rng(0)
-    a = rng.random((60, 80, 3))
+    a = 0.8 * rng.random((60, 80, 3))  # images in [0, 1], also after the changes below
     fp = np.zeros((60, 80), bool)
     fp[20:30, 30:40] = True
     b = a.copy()

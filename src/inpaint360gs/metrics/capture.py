@@ -19,8 +19,10 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+import torch
 
 from inpaint360gs.core.support import Footprint
+from inpaint360gs.metrics.masked import roi_psnr
 
 LUMA = np.array([0.299, 0.587, 0.114])  # ITU-R BT.601 weights
 
@@ -37,10 +39,8 @@ def psnr_outside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, g
     """PSNR (images in [0, 1]) over the pixels outside ``footprint`` grown by ``grow_px``; NaN when
     no pixel is left."""
     keep = ~grow(footprint, grow_px)
-    if not keep.any():
-        return float("nan")
-    mse = float(np.mean((render[keep].astype(np.float64) - photo[keep].astype(np.float64)) ** 2))
-    return float("inf") if mse == 0 else -10.0 * np.log10(mse)
+    value = roi_psnr(torch.as_tensor(np.asarray(render)), torch.as_tensor(np.asarray(photo)), torch.from_numpy(keep))
+    return float("nan") if value is None else value
 
 
 @dataclass
