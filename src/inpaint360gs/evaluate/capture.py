@@ -16,12 +16,12 @@ import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
-from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.core.support import Footprint, object_footprint
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.metrics.capture import psnr_outside, standing_share, texture_ratios
 from inpaint360gs.render.api import render
+from inpaint360gs.views.unseen import footprint
 
 # What a removal should reach on a real capture (the scores' targets, printed beside them).
 TARGETS = {"outside_drop_db": 0.2, "standing": 0.02, "laplacian": 0.7, "luminance": 0.15}
@@ -50,17 +50,6 @@ class CaptureRun:
                 raise InputError("not a finished run of inpaint360gs run (no 3dgs/point_cloud.ply and no distill/distill.json)", run)
             model = Path(read_json_object(record)["inputs"]["model"])
         return CaptureRun(model, run / "distill", run / "removed", inp if (inp / "point_cloud.ply").is_file() else None)
-
-
-def footprint_renders(distilled: Gaussians, removed: torch.Tensor, cameras) -> list[np.ndarray]:
-    """Per camera, the removed Gaussians' footprint: pixels they gave at least half the colour."""
-    g = distilled.map(lambda t: t.detach())
-    g.features = removed.to(g.means.dtype)[:, None]
-    out = []
-    with torch.no_grad():
-        for c in cameras:
-            out.append((render(g, c, with_features=True).features[..., 0] >= 0.5).numpy())
-    return out
 
 
 def check_run(scene: Scene, run: CaptureRun) -> None:
@@ -97,7 +86,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
         models["inpainted"] = read_ply(run.inpainted / "point_cloud.ply")
     splits = {"train": scene.train_views, "held-out": scene.holdout_views}
     views = splits["train"] + splits["held-out"]
-    fps = dict(zip((v.name for v in views), footprint_renders(distilled, removed, [v.camera for v in views])))
+    fps = {v.name: footprint(distilled, removed, v.camera) for v in views}  # the removed Gaussians' footprint
     scores: dict = {"psnr_outside": {}, "texture": {}, "standing": {}}
     renders: dict[str, dict[str, np.ndarray]] = {k: {} for k in models}
     with torch.no_grad():
