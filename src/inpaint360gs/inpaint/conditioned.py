@@ -97,8 +97,12 @@ def inpaint_views(
         mask = mask.astype(bool)
         valid = (alpha >= min_alpha) | mask
         # the colour is Σ cαT over a black background (Eq. 1): where the removal left a surface thinned
-        # (0.5 <= alpha < 1), its colour is the render over alpha, not a darkening the fills would copy
-        thin = valid & ~mask & (alpha < 1.0)
+        # beside the hole (0.5 <= alpha < 1 within 5 % of the image size of it), its colour is the
+        # render over alpha, not a darkening the fills would copy; farther out the render stays as the
+        # 3DGS has it (its own half-transparent edges are no part of the removal)
+        r = max(1, round(0.05 * max(mask.shape)))
+        near = cv2.dilate(mask.astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))) > 0
+        thin = valid & ~mask & near & (alpha < 1.0)
         color[thin] = (color[thin] / alpha[thin][:, None]).clip(0.0, 1.0)
         cond = np.zeros_like(mask)
         if condition and out and mask.any() and i in planes:
