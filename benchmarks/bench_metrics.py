@@ -1,4 +1,4 @@
-"""Metrics speed: one scene's evaluation (``evaluate_renders``) and LPIPS forward+backward.
+"""Metrics speed: one scene's evaluation (``evaluate_stage``) and LPIPS forward+backward.
 
 Usage: python benchmarks/bench_metrics.py [--data /tmp/metrics_data] [--scene cone] [--repeats 3]
        [--lpips-repeats 7] [--threads N] [--out results/benchmarks/metrics.txt]
@@ -108,7 +108,7 @@ def main() -> None:
 
     import torch
 
-    from inpaint360gs.evaluate.stage import evaluate_renders
+    from inpaint360gs.evaluate.stage import evaluate_stage
 
     torch.set_num_threads(args.threads)
     lines: list[str] = []
@@ -128,13 +128,13 @@ def main() -> None:
     say(f"scene {args.scene}: {n} test views at {w}x{h}; renders = blurred + noised test images (timing only)")
     say()
 
-    cold = timed(lambda: evaluate_renders(renders, scene_dir, nets=("vgg", "alex")))
-    warm = [timed(lambda: evaluate_renders(renders, scene_dir, nets=("vgg", "alex"))) for _ in range(args.repeats)]
+    cold = timed(lambda: evaluate_stage(renders, scene_dir, nets=("vgg", "alex")))
+    warm = [timed(lambda: evaluate_stage(renders, scene_dir, nets=("vgg", "alex"))) for _ in range(args.repeats)]
     ev_wall, ev_cpu = statistics.median(r[0] for r in warm), statistics.median(r[1] for r in warm)
     say("| case | median wall s | median CPU s (all threads) | budget | within |")
     say("|---|---|---|---|---|")
-    say(f"| evaluate_renders, {n} views {w}x{h}, all metrics, vgg+alex, fd/kid, no Inception (warm, {args.repeats} runs) | {ev_wall:.2f} | {ev_cpu:.2f} | {BUDGET_EVAL_S:.0f} s | {'yes' if ev_wall <= BUDGET_EVAL_S else 'NO'} |")
-    say(f"| evaluate_renders, first call in the process (loads weights, builds networks) | {cold[0]:.2f} | {cold[1]:.2f} | - | - |")
+    say(f"| evaluate_stage, {n} views {w}x{h}, all metrics, vgg+alex, fd/kid, no Inception (warm, {args.repeats} runs) | {ev_wall:.2f} | {ev_cpu:.2f} | {BUDGET_EVAL_S:.0f} s | {'yes' if ev_wall <= BUDGET_EVAL_S else 'NO'} |")
+    say(f"| evaluate_stage, first call in the process (loads weights, builds networks) | {cold[0]:.2f} | {cold[1]:.2f} | - | - |")
     devs = {}
     for net in ("vgg", "alex"):
         for dtype in (torch.float32, torch.bfloat16):

@@ -1,7 +1,7 @@
 """Raw 2D masks (the segment stage) on the synthetic benchmark: how well each object, above all each
 removal target, is found in the training views, and what the stage costs.
 
-For every scene with a trained model it runs the whole stage (``segment_scene``: load, check, prepare,
+For every scene with a trained model it runs the whole stage (``segment_stage``: load, check, prepare,
 every training view, write) into a temporary folder, then scores the written id images against the
 scene's ground truth (``gt/instance``, ``gt/objects.json``; evaluation code may read gt/):
 
@@ -74,7 +74,7 @@ def main() -> int:
     from inpaint360gs.cli.common import set_threads
     from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.segment import get_segmenter, segment_scene
+    from inpaint360gs.segment import get_segmenter, segment_stage
 
     set_threads(args.threads)
     names = sorted(p.parent.parent.name for p in args.models.glob("*/3dgs/point_cloud.ply")) if args.scenes == ["all"] else args.scenes
@@ -90,7 +90,7 @@ def main() -> int:
         for sname in args.segmenters:
             with tempfile.TemporaryDirectory() as tmp:
                 t0 = time.perf_counter()
-                info = segment_scene(scene, model, get_segmenter(sname), Path(tmp) / "segment", model_path=ply, progress=False)
+                info = segment_stage(scene, model, get_segmenter(sname), Path(tmp) / "segment", model_path=ply, progress=False)
                 wall = time.perf_counter() - t0
                 rows = score_scene(scene, Path(tmp) / "segment", args.min_px)
             cam = scene.train_views[0].camera

@@ -14,7 +14,7 @@ import pytest
 from inpaint360gs.associate.config import AssociationConfig
 from inpaint360gs.cli import STAGES
 from inpaint360gs.distill.config import DistillConfig
-from inpaint360gs.evaluate.stage import evaluate_renders
+from inpaint360gs.evaluate.stage import evaluate_stage
 from inpaint360gs.gs.config import DensifyConfig, TrainConfig
 from inpaint360gs.inpaint.refine import RefineConfig
 from inpaint360gs.inpaint.stage import InpaintConfig
@@ -22,7 +22,7 @@ from inpaint360gs.io.scene import load_scene
 from inpaint360gs.pipeline.run import STAGES as RUN_STAGES
 from inpaint360gs.pipeline.run import RunConfig
 from inpaint360gs.remove.config import RemovalConfig
-from inpaint360gs.remove.stage import removal_stage
+from inpaint360gs.remove.stage import remove_stage
 from inpaint360gs.report.amcr import removal_amcr
 from inpaint360gs.report.geometry import depth_off
 from inpaint360gs.render.api import render
@@ -38,10 +38,10 @@ SOURCES = {
     "segment": [GeometricConfig, ClusterConfig, OracleConfig, SamConfig, RunConfig],
     "render": [render],
     "associate": [AssociationConfig],
-    "remove": [RemovalConfig, removal_stage],
+    "remove": [RemovalConfig, remove_stage],
     "inpaint": [InpaintConfig],
     "run": [RunConfig, InpaintConfig],
-    "evaluate": [evaluate_renders, removal_amcr, depth_off],
+    "evaluate": [evaluate_stage, removal_amcr, depth_off],
     "distill": [DistillConfig],
     "capture-scores": [],
     "table": [],
@@ -58,7 +58,7 @@ RENAMED = {
     "supervision": (RefineConfig, "supervision"),
     "sam_stability_thresh": (SamConfig, "stability_score_thresh"),
     "sam_min_region_area": (SamConfig, "min_mask_region_area"),
-    "nets": (evaluate_renders, "nets"),
+    "nets": (evaluate_stage, "nets"),
 }
 # options that are no stage setting (what to read, where to write, how to run, what to show)
 NOT_SETTINGS = {

@@ -12,7 +12,7 @@ import scene_builder as sb
 from cli_harness import run_cli
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.remove.stage import removal_stage
+from inpaint360gs.remove.stage import remove_stage
 from object_fields import labelled_field, write_field
 
 IDS = [0, 3, 7]
@@ -26,7 +26,7 @@ def removal(tmp_path_factory):
     write_ply(base / "3dgs" / "point_cloud.ply", model)
     field = labelled_field(model, labels, IDS)
     write_field(base / "distill", field, scene)
-    removal_stage(field, scene, base / "removed", ids=[3])
+    remove_stage(field, scene, base / "removed", ids=[3])
     other, _, _ = sb.blobs_scene(base / "other", n_views=9, n_test=0)
     return base, root, other
 

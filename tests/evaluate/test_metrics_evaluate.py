@@ -1,4 +1,4 @@
-"""evaluate_renders on small hand-built scenes: values, null handling, JSON safety, input errors."""
+"""evaluate_stage on small hand-built scenes: values, null handling, JSON safety, input errors."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from inpaint360gs.metrics import (
     roi_ssim,
     ssim,
 )
-from inpaint360gs.evaluate.stage import evaluate_renders, metric_names
+from inpaint360gs.evaluate.stage import evaluate_stage, metric_names
 from inpaint360gs.metrics.masked import EMPTY_ROI_REASON, INFINITE_PSNR_REASON
 from scene_builder import simple_scene, write_png
 from test_metrics_distribution import generated_inception  # noqa: F401 (session fixture)
@@ -63,7 +63,7 @@ def load(path: Path) -> torch.Tensor:
 
 def test_values_match_the_metric_functions_and_nulls_have_reasons(scene):
     root, renders = scene
-    res = evaluate_renders(renders, root)
+    res = evaluate_stage(renders, root)
     json.dumps(res, allow_nan=False)  # no NaN / inf anywhere
     assert res["num_views"] == 4 and res["views"] == [f"test_{i:03d}.png" for i in range(4)]
     assert list(res["mean"]) == metric_names(("vgg", "alex"))
@@ -126,19 +126,19 @@ def test_amcr_of_given_removal_masks(scene):
     masks["test_000.png"][:, :16] = True  # a quarter of the view
     masks["test_001.png"][:] = True
     masks["test_003.png"][0, :3] = True
-    res = evaluate_renders(renders, root, nets=("alex",), removal_masks=masks)
+    res = evaluate_stage(renders, root, nets=("alex",), removal_masks=masks)
     assert res["scene_metrics"]["amcr"] == pytest.approx((25.0 + 100.0 + 0.0 + 100 * 3 / (H * W)) / 4)
     assert res["num_views_mean"]["amcr"] == 4 and "amcr" not in res["null_reasons"]["scene_metrics"]
     assert res["scene_metrics"]["unseen_share"] == pytest.approx(100 * (600 / 3072 * 2) / 3)
     with pytest.raises(InputError, match="no removal mask for test view test_002.png"):
-        evaluate_renders(renders, root, nets=("alex",), removal_masks={k: v for k, v in masks.items() if k != "test_002.png"})
+        evaluate_stage(renders, root, nets=("alex",), removal_masks={k: v for k, v in masks.items() if k != "test_002.png"})
     with pytest.raises(InputError, match="removal mask of test_001.png is"):
-        evaluate_renders(renders, root, nets=("alex",), removal_masks={**masks, "test_001.png": np.ones((H, W + 1), bool)})
+        evaluate_stage(renders, root, nets=("alex",), removal_masks={**masks, "test_001.png": np.ones((H, W + 1), bool)})
 
 
 def test_fid_with_a_weights_file_and_one_net_only(scene, generated_inception):  # noqa: F811
     root, renders = scene
-    res = evaluate_renders(renders, root, nets=("alex",), inception_weights=generated_inception)
+    res = evaluate_stage(renders, root, nets=("alex",), inception_weights=generated_inception)
     assert math.isfinite(res["scene_metrics"]["fid"]) and "fid" not in res["null_reasons"]["scene_metrics"]
     assert res["weights"]["inception"]["matches_pytorch_fid"] is False  # generated, not the published file
     assert "lpips" not in res["mean"] and "lpips_alex" in res["mean"]
@@ -152,8 +152,8 @@ def test_the_output_folder_of_render_is_read_through_its_color_subfolder(scene, 
     shutil.copytree(renders, out / "color")
     (out / "depth").mkdir()
     (out / "render.json").write_text("{}")
-    a = evaluate_renders(out, root, nets=("alex",))
-    b = evaluate_renders(renders, root, nets=("alex",))
+    a = evaluate_stage(out, root, nets=("alex",))
+    b = evaluate_stage(renders, root, nets=("alex",))
     assert a["per_view"] == b["per_view"]
 
 
@@ -162,23 +162,23 @@ def test_input_errors(scene, tmp_path):
     extra = renders / "test_009.png"
     shutil.copy(renders / "test_000.png", extra)
     with pytest.raises(InputError, match="matches no test view") as e:
-        evaluate_renders(renders, root)
+        evaluate_stage(renders, root)
     assert e.value.path == extra and "\n" not in str(e.value)
     extra.unlink()
 
     (renders / "test_001.png").unlink()
     with pytest.raises(InputError, match="missing render for test view test_001.png"):
-        evaluate_renders(renders, root)
+        evaluate_stage(renders, root)
     write_png(renders / "test_001.png", np.zeros((H, W + 2, 3), np.uint8))
     with pytest.raises(InputError, match=r"render is 66x48 but test view test_001.png is 64x48") as e:
-        evaluate_renders(renders, root)
+        evaluate_stage(renders, root)
     assert e.value.path == renders / "test_001.png"
     write_png(renders / "test_001.png", np.zeros((H, W, 3), np.uint8))
 
     with pytest.raises(InputError, match="Inception weights file not found"):
-        evaluate_renders(renders, root, inception_weights=tmp_path / "nope.pth")
+        evaluate_stage(renders, root, inception_weights=tmp_path / "nope.pth")
     with pytest.raises(InputError, match="renders folder not found"):
-        evaluate_renders(tmp_path / "nope", root)
+        evaluate_stage(tmp_path / "nope", root)
 
 
 
@@ -191,7 +191,7 @@ def test_scene_without_test_views_reports_no_ground_truth(tmp_path, capsys):
     simple_scene(no_test, n_train=4, n_test=0, width=W, height=H)
     renders = tmp_path / "renders"
     renders.mkdir()  # what the inpaint stage leaves in renders/test/ for such a scene
-    res = evaluate_renders(renders, no_test)
+    res = evaluate_stage(renders, no_test)
     json.dumps(res, allow_nan=False)
     assert NO_GROUND_TRUTH == "no ground truth: the scene has no object-free test_ views"
     assert res["ground_truth"] is False and res["reason"] == NO_GROUND_TRUTH

@@ -100,7 +100,7 @@ def test_imports_go_down_only(path: Path, pkg: str):
 def test_the_layer_check_catches_an_upward_import(tmp_path):
     """The check itself: a render module importing gs is reported."""
     p = tmp_path / "x.py"
-    p.write_text("def f():\n    from inpaint360gs.gs.trainer import train\n")
+    p.write_text("def f():\n    from inpaint360gs.gs.trainer import train_stage\n")
     (line, mod), *_ = _imports(p)
     assert (line, _package_of(mod)) == (2, "gs") and FLOORS["gs"] > FLOORS["render"]
 

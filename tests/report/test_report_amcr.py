@@ -18,7 +18,7 @@ from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io.images import read_mask
 from inpaint360gs.io.scene import load_scene
 from inpaint360gs.remove.config import RemovalConfig
-from inpaint360gs.remove.stage import removal_stage
+from inpaint360gs.remove.stage import remove_stage
 from inpaint360gs.render.api import render
 from inpaint360gs.report.amcr import original_model, removal_amcr, removal_masks, masks_in_test_views
 
@@ -34,7 +34,7 @@ def removed(make_blobs_scene):
     field = labelled_field(model, labels, IDS)
     out = root.parent / "removed"
     cfg = RemovalConfig(hull=False, protect_support=None, support_column=None, footprint_margin=None)
-    removal_stage(field, scene, out, ids=[3], cfg=cfg)
+    remove_stage(field, scene, out, ids=[3], cfg=cfg)
     return scene, field.gaussians, labels, out
 
 

@@ -17,7 +17,7 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.io.images import read_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.segment import get_segmenter, read_segments, segment_scene, segmenter_names
+from inpaint360gs.segment import get_segmenter, read_segments, segment_stage, segmenter_names
 from inpaint360gs.segment.cluster3d import ClusterConfig, cluster_gaussians
 from inpaint360gs.segment.frame import scene_frame
 from inpaint360gs.segment.geometric import GeometricConfig, GeometricSegmenter
@@ -230,7 +230,7 @@ def blob_scene(tmp_path_factory):
 def test_stage_writes_one_id_image_per_training_view(blob_scene, tmp_path):
     root, ply, model, owner = blob_scene
     scene = load_scene(root)
-    info = segment_scene(scene, model, GeometricSegmenter(), tmp_path / "seg", model_path=ply, progress=False)
+    info = segment_stage(scene, model, GeometricSegmenter(), tmp_path / "seg", model_path=ply, progress=False)
     files = sorted(p.name for p in (tmp_path / "seg").iterdir())
     assert files == sorted([f"{v.stem}.png" for v in scene.train_views] + ["segment.json"])
     assert not any(n.startswith("test_") for n in files)
@@ -243,7 +243,7 @@ def test_stage_writes_one_id_image_per_training_view(blob_scene, tmp_path):
     assert segs[v.stem].dtype == np.uint16 and segs[v.stem].max() == meta["views"][v.stem]["segments"] == 2
     assert read_mask(tmp_path / "seg" / f"{v.stem}.png").dtype == np.uint16
     # deterministic: same inputs, same bytes
-    segment_scene(scene, model, GeometricSegmenter(), tmp_path / "again", progress=False)
+    segment_stage(scene, model, GeometricSegmenter(), tmp_path / "again", progress=False)
     for v in scene.train_views:
         assert (tmp_path / "seg" / f"{v.stem}.png").read_bytes() == (tmp_path / "again" / f"{v.stem}.png").read_bytes()
 
@@ -258,7 +258,7 @@ def test_stage_refuses_a_model_of_another_scene(blob_scene, tmp_path):
     root, _, _, _ = blob_scene
     other = _other_scene()
     with pytest.raises(InputError, match="does not reproduce the training views"):
-        segment_scene(load_scene(root), other, GeometricSegmenter(), tmp_path / "x", progress=False)
+        segment_stage(load_scene(root), other, GeometricSegmenter(), tmp_path / "x", progress=False)
     assert not (tmp_path / "x").exists()
 
 

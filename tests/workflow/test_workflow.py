@@ -209,3 +209,28 @@ def test_the_kitchen_config_builds_runs_and_scores_a_capture(tmp_path):
     assert "--sfm-max-size 800 --downscale 4" in out
     assert "--click IMG_12.png:856,360 --resize 4 --preset cpu" in out
     assert f"{tmp_path}/results/captures/kitchen_removal.jpg" in out
+
+
+def test_stage_defaults_come_from_the_library(tmp_path):
+    """config.yaml repeats none of the distillation / inpainting defaults: the planned commands get
+    the library's (DistillConfig, VirtualViewsConfig; the refinement variant's steps, so no flag),
+    and a value given in the config replaces it."""
+    import yaml
+
+    from inpaint360gs.distill.config import DistillConfig
+    from inpaint360gs.views.virtual import VirtualViewsConfig
+
+    cfg = yaml.safe_load((ROOT / "workflow" / "config" / "config.yaml").read_text())
+    assert not {"iterations"} & set(cfg["distill"] or {}) and not {"iterations", "virtual_views"} & set(cfg["inpaint"])
+
+    def planned(stage, *extra):
+        p = _dry_run(tmp_path, "scenes=[cone]", "seeds=[0]", "methods=[full]", "train_scenes=[]", *extra)
+        assert p.returncode == 0, p.stderr[-2000:]
+        return next(line for line in p.stdout.splitlines() if f"inpaint360gs {stage} " in line)
+
+    assert f"--iterations {DistillConfig().iterations} " in planned("distill")
+    line = planned("inpaint")
+    assert f"--virtual-views {VirtualViewsConfig().num_views} " in line and "--inpaint-iterations" not in line
+    assert "--iterations 70 " in planned("distill", "distill={iterations: 70}")
+    line = planned("inpaint", "inpaint={iterations: 90, virtual_views: 7, extra_args: ''}")
+    assert "--inpaint-iterations 90 --virtual-views 7 " in line

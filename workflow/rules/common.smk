@@ -19,6 +19,22 @@ from inpaint360gs.pipeline.presets import get_preset
 _PRESET = get_preset(config["train"].get("preset", "cpu"))
 TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else getattr(_PRESET, k) for k in ("iterations", "max_gaussians", "backend")}
 
+# Distillation and inpainting settings: the library's defaults (their config dataclasses), each
+# replaced by the value `distill:` / `inpaint:` gives
+from inpaint360gs.distill.config import DistillConfig
+from inpaint360gs.views.virtual import VirtualViewsConfig
+
+
+def _given(section, key, default):
+    value = config.get(section, {}).get(key)
+    return default if value is None else value
+
+
+DISTILL_ITERATIONS = _given("distill", "iterations", DistillConfig().iterations)
+VIRTUAL_VIEWS = _given("inpaint", "virtual_views", VirtualViewsConfig().num_views)
+# None: the refinement variant's own number of steps (inpaint360gs/inpaint/refine.py)
+INPAINT_ITERATIONS = config.get("inpaint", {}).get("iterations")
+
 
 def _synthetic_names():
     from dataset_tools.synth import SCENES as names
@@ -93,11 +109,11 @@ METHODS = {
     "abl_d": dict(kind="ablation", labels=dict(ablation="d"), name="w/o recursive conditioning", association="kom", inpaint="--no-condition"),
     "abl_e": dict(kind="ablation", labels=dict(ablation="e"), name="w/o hybrid supervision", association="kom", inpaint="--supervision mask"),
 }
-METHODS["full"]["labels"] = dict(virtual_views=config["inpaint"]["virtual_views"])
+METHODS["full"]["labels"] = dict(virtual_views=VIRTUAL_VIEWS)
 # the supplementary's study of the number of virtual views L: the full method at each L of `views_sweep`
-SWEEP = [f"full_L{n}" for n in config["views_sweep"] if n != config["inpaint"]["virtual_views"]]
+SWEEP = [f"full_L{n}" for n in config["views_sweep"] if n != VIRTUAL_VIEWS]
 for n in config["views_sweep"]:
-    if n != config["inpaint"]["virtual_views"]:
+    if n != VIRTUAL_VIEWS:
         METHODS[f"full_L{n}"] = dict(kind="sweep", name=f"Inpaint360GS, L = {n}", association="kom", inpaint=f"--virtual-views {n}",
                                      labels=dict(virtual_views=n))
 unknown = sorted(set(config["methods"]) - set(METHODS))

@@ -32,8 +32,8 @@ rule inpaint:
         removed=lambda wc: f"{run_dir(wc)}/{METHODS[wc.method]['association']}/removed",
         out=lambda wc: f"{run_dir(wc)}/methods/{wc.method}",
         switches=lambda wc: METHODS[wc.method]["inpaint"],
-        iterations=config["inpaint"]["iterations"],
-        views=config["inpaint"]["virtual_views"],
+        iterations="" if INPAINT_ITERATIONS is None else f"--inpaint-iterations {INPAINT_ITERATIONS}",
+        views=VIRTUAL_VIEWS,
         extra=config["inpaint"]["extra_args"],
     threads: THREADS
     resources:
@@ -46,5 +46,5 @@ rule inpaint:
     shell:
         # the method's switches come last: they override the configured defaults (e.g. L of a sweep run)
         "inpaint360gs inpaint {params.scene_dir:q} {params.distill:q} {params.removed:q} {params.out:q}"
-        " --inpaint-iterations {params.iterations} --virtual-views {params.views} --seed {wildcards.seed}"
+        " {params.iterations} --virtual-views {params.views} --seed {wildcards.seed}"
         " --backend {params.backend} --threads {threads} --overwrite --no-progress {params.extra} {params.switches} > {log:q} 2>&1"

@@ -68,7 +68,7 @@ rule distill:
         scene_dir=lambda wc: scene_dir(wc.scene),
         assoc=lambda wc: f"{run_dir(wc)}/{wc.association}/associate",
         out=lambda wc: f"{run_dir(wc)}/{wc.association}/distill",
-        iterations=config["distill"]["iterations"],
+        iterations=DISTILL_ITERATIONS,
     threads: THREADS
     resources:
         mem_mb=6000,

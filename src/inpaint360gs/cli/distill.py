@@ -76,7 +76,7 @@ def config_from_args(args: argparse.Namespace) -> DistillConfig:
 def run(args: argparse.Namespace) -> int:
     """Run ``inpaint360gs distill`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.core.errors import InputError
-    from inpaint360gs.distill import distill
+    from inpaint360gs.distill import distill_stage
     from inpaint360gs.io.scene import load_scene
 
     set_threads(args.threads)
@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     if not masks.is_dir():
         raise InputError("no object_mask/ folder in the association folder", args.assoc)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False, unregistered="warn")
-    res = distill(scene, args.model, masks, objects, cfg, args.out, overwrite=args.overwrite, progress=not args.no_progress)
+    res = distill_stage(scene, args.model, masks, objects, cfg, args.out, overwrite=args.overwrite, progress=not args.no_progress)
     r = res.report
     tv = r["final"]["train_views"]
     miou = f", mean object IoU {tv['mean_object_iou']:.3f}" if tv["mean_object_iou"] is not None else ""

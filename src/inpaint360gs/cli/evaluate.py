@@ -4,7 +4,7 @@ Tab. 1, supp. Eq. 1) for a folder of renders of a scene's test_ views — full i
 the Inception weights when configured, the offline substitutes fd_vgg16 / kid_vgg16, the unseen
 masks' coverage (unseen_share), with ``--removal REMOVED_DIR`` AMCR on that removal's masks at the
 test cameras, and with ``--model PLY`` the fill's geometry against the true surface (roi_depth_off)
-(thin shell over :func:`inpaint360gs.evaluate.stage.evaluate_renders`, :mod:`inpaint360gs.report.amcr`
+(thin shell over :func:`inpaint360gs.evaluate.stage.evaluate_stage`, :mod:`inpaint360gs.report.amcr`
 and :mod:`inpaint360gs.report.geometry`). A scene without test_ views (no
 object-free photos) is scored as "no ground truth": exit 0, every metric null with that reason."""
 
@@ -39,7 +39,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.cli.common import check_apart, set_threads
     from inpaint360gs.core.errors import InputError
     from inpaint360gs.io.atomic import write_text
-    from inpaint360gs.evaluate.stage import evaluate_renders
+    from inpaint360gs.evaluate.stage import evaluate_stage
 
     set_threads(args.threads)
     nets = tuple(n.strip() for n in args.nets.split(",") if n.strip())
@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
             from inpaint360gs.report.geometry import depth_off as fill_depth_off
 
             depth_off = fill_depth_off(args.model, scene, args.backend)
-    res = evaluate_renders(args.renders, args.scene, nets=nets, inception_weights=args.inception_weights, resize=args.resize,
+    res = evaluate_stage(args.renders, args.scene, nets=nets, inception_weights=args.inception_weights, resize=args.resize,
                            removal_masks=removal_masks, depth_off=depth_off)
     write_text(args.out, json.dumps(res, indent=1, allow_nan=False) + "\n")
     if not res.get("ground_truth", True):

@@ -1,7 +1,7 @@
 """``inpaint360gs inpaint SCENE DISTILL REMOVED OUT``: virtual views, geometric unseen masks and
 occluders, recursive conditional RGB-D 2D inpainting, depth-guided initialisation and 3D inpainting
 with hybrid supervision (paper Sec. 3.4-3.5; thin shell over
-:func:`inpaint360gs.inpaint.stage.inpaint_from_removal`). Each switch turns one part off for the
+:func:`inpaint360gs.inpaint.stage.inpaint_stage`). Each switch turns one part off for the
 ablations of paper Tab. 3."""
 
 from __future__ import annotations
@@ -82,7 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``inpaint360gs inpaint`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.distill.field import IdentityField
-    from inpaint360gs.inpaint.stage import inpaint_from_removal
+    from inpaint360gs.inpaint.stage import inpaint_stage
     from inpaint360gs.io.scene import load_scene
 
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "DISTILL": args.distill, "REMOVED": args.removed, "--lama-onnx": args.lama_onnx})  # OUT is replaced as a whole
@@ -90,6 +90,6 @@ def run(args: argparse.Namespace) -> int:
     cfg = inpaint_config(args, args.seed, args.backend)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     field = IdentityField.load(args.distill)
-    rec = inpaint_from_removal(field, args.removed, scene, args.out, cfg, overwrite=args.overwrite, progress=not args.no_progress)
+    rec = inpaint_stage(field, args.removed, scene, args.out, cfg, overwrite=args.overwrite, progress=not args.no_progress)
     print(f"{scene.name}: inpainted on {rec['num_views']} {rec['views']} view(s), {rec['new_gaussians']} new Gaussians, in {rec['seconds']['total_s']:.0f} s -> {args.out}")
     return 0

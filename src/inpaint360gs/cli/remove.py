@@ -1,6 +1,6 @@
 """``inpaint360gs remove SCENE DISTILL OUT --click VIEW:X,Y | --id N``: select objects by a click on
 a view (resolved through the rendered id map) or by id, and remove them from the distilled field
-(paper Sec. 3.4; thin shell over :func:`inpaint360gs.remove.stage.removal_stage`)."""
+(paper Sec. 3.4; thin shell over :func:`inpaint360gs.remove.stage.remove_stage`)."""
 
 from __future__ import annotations
 
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     from inpaint360gs.io.atomic import check_output_dir
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.remove.config import RemovalConfig
-    from inpaint360gs.remove.stage import load_field, removal_stage
+    from inpaint360gs.remove.stage import load_field, remove_stage
     from inpaint360gs.remove.select import Click, check_clicks
 
     set_threads(args.threads)
@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"nothing selected: give --click VIEW:X,Y or --id N ({no_clicks_reason(scene)})", scene.root / "scene.json")
     check_clicks(scene, clicks, where)
     field = load_field(args.distill, scene)
-    info = removal_stage(field, scene, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,
+    info = remove_stage(field, scene, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,
                          meta={"scene": str(scene.root), "distill": str(args.distill)})  # fmt: skip
     print(f"{scene.name}: removed object(s) {info['objects']} ({info['removed_gaussians']} Gaussians); AMCR {info['amcr_percent']:.2f}% -> {args.out}")
     return 0

@@ -1,5 +1,5 @@
 """``inpaint360gs segment SCENE MODEL.ply OUT``: raw 2D masks of every training view (paper Sec. 3.2;
-thin shell over :func:`inpaint360gs.segment.stage.segment_scene`).
+thin shell over :func:`inpaint360gs.segment.stage.segment_stage`).
 
 Writes ``OUT/<stem>.png`` (16-bit ids, 0 = no segment, ids per view) and ``OUT/segment.json``.
 ``--segmenter geometric`` (default, no weights) renders clusters of the model's Gaussians;
@@ -95,7 +95,7 @@ def make_segmenter(args: argparse.Namespace):
 def run(args: argparse.Namespace) -> int:
     """Run ``inpaint360gs segment`` with parsed ``args``; returns the exit status."""
     from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.segment.stage import segment_scene
+    from inpaint360gs.segment.stage import segment_stage
 
     set_threads(args.threads)
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "MODEL": args.model})  # --overwrite replaces OUT as a whole
@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
         from inpaint360gs.io.ply import read_ply
 
         model = read_ply(args.model)
-    info = segment_scene(scene, model, segmenter, args.out, model_path=args.model, overwrite=args.overwrite, progress=not args.no_progress)
+    info = segment_stage(scene, model, segmenter, args.out, model_path=args.model, overwrite=args.overwrite, progress=not args.no_progress)
     counts = [v["segments"] for v in info["views"].values()]
     label = " (from ground truth)" if info["reads_ground_truth"] else ""
     print(

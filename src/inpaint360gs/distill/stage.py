@@ -1,7 +1,7 @@
 """Object-ID distillation (paper Sec. 3.3, supp. B "Object Feature Distillation", Alg. 1): the
 associated per-view object masks are distilled into identity features of the frozen Gaussian field.
 
-``distill(scene, model, masks_dir, objects, cfg, out_dir)``:
+``distill_stage(scene, model, masks_dir, objects, cfg, out_dir)``:
 
 1. read and check every input (model, object ids, one mask per training view) before any work;
 2. give each Gaussian a random feature f_i in R^F (Gaussian Grouping's initialisation: U[0, 1)
@@ -191,7 +191,7 @@ class Distiller:
         return {"pixel_accuracy": round(correct / max(total, 1), 5), "iou": iou, "mean_object_iou": round(sum(objects) / len(objects), 4) if objects else None}
 
 
-def distill(
+def distill_stage(
     scene: Scene,
     model: Gaussians | str | Path,
     masks_dir: str | Path,

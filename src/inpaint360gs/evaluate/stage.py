@@ -1,6 +1,6 @@
 """Score a folder of rendered test views against a scene's ground truth (paper Sec. 4 "Metrics").
 
-``evaluate_renders(renders_dir, scene_dir)`` reads one PNG per ``test_`` view from ``renders_dir``
+``evaluate_stage(renders_dir, scene_dir)`` reads one PNG per ``test_`` view from ``renders_dir``
 (same stem as the test image, e.g. ``test_0003.png``) and the scene through
 :func:`inpaint360gs.io.scene.load_scene`; test pixels are read only through
 ``Scene.load_image(view, allow_test=True)`` and unseen masks through ``Scene.load_mask``.
@@ -357,7 +357,7 @@ def _record(scene: Scene, made: provenance.Record | None, nets: tuple, inception
     return provenance.make("evaluate", scene, inputs, {"nets": list(nets), "inception": None if inception is None else sha256_file(inception)})
 
 
-def evaluate_renders(
+def evaluate_stage(
     renders_dir: str | Path,
     scene_dir: str | Path,
     *,

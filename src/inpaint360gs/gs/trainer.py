@@ -1,6 +1,6 @@
 """3DGS training runner (Kerbl et al. 2023; the paper's Gaussian field, Sec. 3.1 / supp. Sec. C).
 
-``train(scene, cfg, out_dir)`` initialises Gaussians from the sparse SfM points, optimises them on the
+``train_stage(scene, cfg, out_dir)`` initialises Gaussians from the sparse SfM points, optimises them on the
 scene's training views with the 3DGS recipe (see :mod:`inpaint360gs.gs.config`), checkpoints
 atomically, stops with :class:`TrainingDivergedError` on NaN/Inf, evaluates on the held-out views and
 writes ``point_cloud.ply``, ``metrics.json``, ``config.yaml`` and ``train_log.csv`` to ``out_dir``.
@@ -343,7 +343,7 @@ class Trainer:
         return TrainResult(gaussians=model, metrics=metrics, out_dir=self.out, steps=self.step)
 
 
-def train(
+def train_stage(
     scene: Scene,
     cfg: TrainConfig,
     out_dir: str | Path,

@@ -441,7 +441,7 @@ def read_footprints(removed_dir: str | Path) -> list:
         raise InputError(f"unreadable footprints in the removal record ({type(e).__name__})", Path(removed_dir) / "removal.json") from None
 
 
-def inpaint_from_removal(field_: IdentityField, removed_dir: str | Path, scene: Scene, out: str | Path, cfg: InpaintConfig | None = None, *, overwrite: bool = False, progress: bool = False) -> dict:
+def inpaint_stage(field_: IdentityField, removed_dir: str | Path, scene: Scene, out: str | Path, cfg: InpaintConfig | None = None, *, overwrite: bool = False, progress: bool = False) -> dict:
     """The stage as ``inpaint360gs inpaint`` runs it: read the removal, inpaint, write ``out``.
 
     Args: ``field_`` the distillation output the removal was made from; ``removed_dir`` the removal

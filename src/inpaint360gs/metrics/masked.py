@@ -18,7 +18,7 @@ Undefined and infinite values:
   the reason string. ``masked_*`` stay defined on an empty mask (both images are all zero), as in
   the paper's code;
 - PSNR of a render equal to the ground truth on every evaluated pixel is ``+inf`` here, as in the
-  paper's code. JSON cannot hold inf, so :func:`~inpaint360gs.evaluate.stage.evaluate_renders`
+  paper's code. JSON cannot hold inf, so :func:`~inpaint360gs.evaluate.stage.evaluate_stage`
   stores ``null`` with the reason ``INFINITE_PSNR_REASON``, and a mean over views that include
   such a view is ``null`` too (with a reason), never a mean over fewer views.
 

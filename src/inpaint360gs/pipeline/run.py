@@ -226,9 +226,9 @@ class Runner:
         return done
 
     def _train(self) -> None:
-        from inpaint360gs.gs.trainer import train
+        from inpaint360gs.gs.trainer import train_stage
 
-        train(self.scene, self.cfg.train, self.layout.gs, resume=True, overwrite=True, progress=self.progress)
+        train_stage(self.scene, self.cfg.train, self.layout.gs, resume=True, overwrite=True, progress=self.progress)
 
     def _model(self):
         from inpaint360gs.io.ply import read_ply
@@ -237,10 +237,10 @@ class Runner:
 
     def _segment(self) -> None:
         from inpaint360gs.segment.base import get_segmenter
-        from inpaint360gs.segment.stage import segment_scene
+        from inpaint360gs.segment.stage import segment_stage
 
         seg = get_segmenter(self.cfg.segmenter, **self.cfg.segmenter_options)
-        segment_scene(self.scene, self._model(), seg, self.layout.segment, model_path=self.model_file, overwrite=True, progress=self.progress)
+        segment_stage(self.scene, self._model(), seg, self.layout.segment, model_path=self.model_file, overwrite=True, progress=self.progress)
 
     def _associate(self) -> None:
         from inpaint360gs.associate.stage import associate_stage
@@ -249,10 +249,10 @@ class Runner:
                         model_path=self.model_file, meta={"scene": str(self.scene.root), "model": str(self.model_file)})  # fmt: skip
 
     def _distill(self) -> None:
-        from inpaint360gs.distill.stage import distill
+        from inpaint360gs.distill.stage import distill_stage
 
         lay = self.layout
-        distill(self.scene, self.model_file, lay.associate / "object_mask", lay.associate / "objects.json", self.cfg.distill, lay.distill, overwrite=True, progress=self.progress)
+        distill_stage(self.scene, self.model_file, lay.associate / "object_mask", lay.associate / "objects.json", self.cfg.distill, lay.distill, overwrite=True, progress=self.progress)
 
     def _field(self):
         from inpaint360gs.distill.field import IdentityField
@@ -260,12 +260,12 @@ class Runner:
         return IdentityField.load(self.layout.distill)
 
     def _remove(self) -> None:
-        from inpaint360gs.remove.stage import removal_stage
+        from inpaint360gs.remove.stage import remove_stage
 
-        removal_stage(self._field(), self.scene, self.layout.removed, clicks=self.clicks, ids=self.ids, cfg=self.cfg.removal,
+        remove_stage(self._field(), self.scene, self.layout.removed, clicks=self.clicks, ids=self.ids, cfg=self.cfg.removal,
                       backend=self.cfg.backend, overwrite=True, meta={"scene": str(self.scene.root)})  # fmt: skip
 
     def _inpaint(self) -> None:
-        from inpaint360gs.inpaint.stage import inpaint_from_removal
+        from inpaint360gs.inpaint.stage import inpaint_stage
 
-        inpaint_from_removal(self._field(), self.layout.removed, self.scene, self.layout.inpainted, self.cfg.inpaint, overwrite=True, progress=self.progress)
+        inpaint_stage(self._field(), self.layout.removed, self.scene, self.layout.inpainted, self.cfg.inpaint, overwrite=True, progress=self.progress)

@@ -46,7 +46,7 @@ def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     return field_
 
 
-def removal_stage(
+def remove_stage(
     field_: IdentityField,
     scene: Scene,
     out: str | Path,

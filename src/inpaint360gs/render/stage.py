@@ -19,7 +19,7 @@ from inpaint360gs.render.api import render
 
 
 @torch.no_grad()
-def render_views(
+def render_stage(
     model: Gaussians,
     scene: Scene,
     views: Sequence[View],

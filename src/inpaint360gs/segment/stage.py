@@ -57,7 +57,7 @@ def check_model_fits_scene(scene: Scene, model: Gaussians, images: dict[str, tor
     return mean
 
 
-def segment_scene(
+def segment_stage(
     scene: Scene,
     model: Gaussians | None,
     segmenter: Segmenter,
