@@ -425,7 +425,7 @@ def test_load_field_checks_the_folder_against_the_scene(blobs, tmp_path):
 # --- the stage --------------------------------------------------------------------------------------
 
 
-def test_removal_stage_outputs(blobs, tmp_path):
+def test_remove_stage_outputs(blobs, tmp_path):
     scene, model, labels, field = blobs
     v = scene.train_views[3]
     click = Click(v.name, *centre_pixel(v.camera, BLOB_CENTRES[3]))
@@ -633,7 +633,8 @@ def test_footprint_column_tells_a_flat_part_of_the_object_from_support_taken_for
     """Two low selected patches far from a box's outline (beyond the support reach): a flat red part
     of the object (a cone's base) and a patch of the grey floor the field took for the object. The
     floor's colour around the footprint decides: the red part goes with the object, the grey patch
-    stays; with every colour alike, both would stay."""
+    stays, and the footprint the inpainting fills widens to the red part; with every colour alike,
+    both would stay."""
     from inpaint360gs.core.gaussians import SH_C0
 
     rng = np.random.default_rng(6)
@@ -654,5 +655,11 @@ def test_footprint_column_tells_a_flat_part_of_the_object_from_support_taken_for
     assert removed[part == 3].all() and removed[part == 2].all()
     assert not removed[part == 1].any()
     assert res.counts["footprint"][0]["support_kept"] > 0  # the grey patch's part the selection took
+    # the recorded footprint (what the inpainting fills on the support) widens to the red part, not to the grey patch
+    fp = res.footprints[0]
+    assert (fp.distance(base) <= 1e-9).mean() >= 0.95 and (fp.distance(floor[beside]) > 0.1).all()
+    assert abs(fp.height - 0.5) < 0.01
     field.gaussians.sh0[:, 0] = 0.0  # every colour alike: the red part would count as support too
-    assert not remove_objects(field, [3], RemovalConfig(hull=False), up=up).removed_mask.numpy()[part == 3].all()
+    alike = remove_objects(field, [3], RemovalConfig(hull=False), up=up)
+    assert not alike.removed_mask.numpy()[part == 3].all()
+    assert abs(alike.footprints[0].size - 0.5) < 0.02  # and the footprint is the box's alone

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+STANDING = 0.1  # an object's Gaussians higher than this x its height above the support stand on it (they make its outline)
+
 
 def fit_plane(points: np.ndarray, up: np.ndarray, *, trim: float = 0.8, rounds: int = 5) -> tuple[np.ndarray, float]:
     """Least-squares plane (unit normal oriented with ``up``, offset d with n.x = d) through
@@ -77,6 +79,12 @@ class Footprint:
         """Which ``points`` (N, 3) lie in the column over the outline's convex hull."""
         return inside_polygon_hull(self.outline, plane_coordinates(points, self.normal))
 
+    def widened(self, points: np.ndarray) -> "Footprint":
+        """The same footprint with ``points`` (N, 3) added to its outline (their plane coordinates)."""
+        if not len(points):
+            return self
+        return Footprint(self.normal, self.offset, np.concatenate([self.outline, plane_coordinates(points, self.normal)]), self.height)
+
     def to_json(self) -> dict:
         """JSON-ready dict (normal, offset, height, outline)."""
         return {"normal": self.normal.tolist(), "offset": self.offset, "height": self.height, "outline": self.outline.tolist()}
@@ -125,7 +133,7 @@ class Footprint:
 
 
 def object_footprint(object_means: np.ndarray, object_opacities: np.ndarray, scene_means: np.ndarray, scene_opacities: np.ndarray, up: np.ndarray,
-                     *, min_opacity: float = 0.1, ring: float = 0.5, trim_share: float = 0.01, standing: float = 0.1) -> Footprint:  # fmt: skip
+                     *, min_opacity: float = 0.1, ring: float = 0.5, trim_share: float = 0.01, standing: float = STANDING) -> Footprint:  # fmt: skip
     """The footprint of an object (its Gaussians ``object_means``) standing on a surface of the
     scene (``scene_means``, the Gaussians left after removal), with ``up`` roughly the surface's
     normal (e.g. the training cameras' up). The support plane is fitted (:func:`fit_plane`) to the

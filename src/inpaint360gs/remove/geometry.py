@@ -109,7 +109,7 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
     support's normal (None: the cameras' up is not known and the column is skipped); ``colours``
     (N, 3) in [0, 1], None = every low selected Gaussian far enough out counts as support. Returns
     the new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
-    from inpaint360gs.core.support import object_footprint
+    from inpaint360gs.core.support import STANDING, object_footprint
 
     remove = remove.copy()
     found = []
@@ -126,12 +126,23 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         column = (d <= cfg.footprint_margin * fp.size) & (h > -cfg.footprint_depth * fp.height) & (h <= FOOTPRINT_TOP * fp.height) & ~keep
         low = np.abs(h) <= cfg.support_band * fp.height
         support = remove & body & (d > cfg.support_reach * fp.size) & low
+        ring = ~remove & low & (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
         if colours is not None and support.any():
-            ring = ~remove & low & (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
             support[support] = support_coloured(colours[support], colours[ring])
         counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size})
         remove = (remove | column) & ~support
-        found.append(fp)
+        # The object's own low parts (a flat base, a rim lying on the support: below the outline's
+        # standing share, not in the support's colours) covered support that is now empty: the
+        # footprint widens to them, so the inpainting fills there on the plane (Sec. 3.4) like the
+        # rest; the farthest 1 % are strays. Without colours, no low part is told from the support.
+        base = remove & body & (h > -cfg.footprint_depth * fp.height) & (h <= STANDING * fp.height) & (opacities > 0.1) & (d > 0)
+        if colours is None:
+            base[:] = False
+        elif base.any():
+            base[base] = ~support_coloured(colours[base], colours[ring])
+        if base.any():
+            base &= d <= np.quantile(d[base], 0.99)
+        found.append(fp.widened(means[base]))
     return remove, found
 
 
