@@ -127,3 +127,37 @@ def test_every_option_defaults_to_its_setting(stage):
 def test_the_run_stages_are_the_cli_until_choices():
     until = next(a for a in _options("run") if a.dest == "until")
     assert tuple(until.choices) == RUN_STAGES and until.default == RUN_STAGES[-1]
+
+
+def test_a_bad_setting_is_named_by_its_option_on_the_command_line():
+    """Library code names a bad setting by its config field (or parameter); the command line shows
+    the option that sets it, in every stage that has one (renamed ones included)."""
+    from inpaint360gs.cli.common import option_of
+
+    def parser(stage):
+        p = argparse.ArgumentParser()
+        importlib.import_module(STAGES[stage][0]).add_arguments(p)
+        return p
+
+    assert option_of("TrainConfig.iterations", parser("train")) == "--iterations"
+    assert option_of("DistillConfig.iterations", parser("distill")) == "--iterations"
+    assert option_of("DistillConfig.iterations", parser("run")) == "--distill-iterations"
+    assert option_of("RefineConfig.iterations", parser("run")) == "--inpaint-iterations"
+    assert option_of("VirtualViewsConfig.num_views", parser("inpaint")) == "--virtual-views"
+    assert option_of("DensifyConfig.grad_threshold", parser("train")) == "--densify-grad-threshold"
+    assert option_of("clicks", parser("remove")) == "--click"
+    assert option_of("AssociationConfig.part_share/AssociationConfig.merge_share", parser("associate")) == "--part-share/--merge-share"
+    assert option_of("skip_reason", parser("table")) == "--skip-reason"  # a subcommand's option
+    assert option_of("InpaintConfig.nothing_like_it", parser("inpaint")) == "InpaintConfig.nothing_like_it"
+
+
+def test_library_code_names_settings_not_command_line_options():
+    """No ``"--option"`` string in the library outside ``cli/``: errors name the setting and the CLI
+    layer names the option (above)."""
+    import re
+    from pathlib import Path
+
+    src = Path(importlib.import_module("inpaint360gs").__file__).parent
+    found = [f"{p.relative_to(src)}:{i}" for p in sorted(src.rglob("*.py")) if p.parent.name != "cli"
+             for i, line in enumerate(p.read_text().splitlines(), 1) if re.search(r"""["']--[a-z]""", line) and "git" not in line]
+    assert not found, found

@@ -50,10 +50,10 @@ def test_click_parse(text, want):
 
 
 @pytest.mark.parametrize("text", ["IMG.png", "IMG.png:5", "IMG.png:5,6,7", "IMG.png:x,y", "IMG.png:,", "", "IMG.png:nan,3", "IMG.png:inf,3", "IMG.png:1e400,3", "5,6", ":5,6"])
-def test_malformed_click_is_an_input_error_naming_the_option(text):
+def test_malformed_click_is_an_input_error_naming_the_setting(text):
     with pytest.raises(InputError, match="not VIEW:X,Y") as e:
         Click.parse(text)
-    assert str(e.value.path) == "--click"
+    assert e.value.setting == "clicks" and e.value.path is None
 
 
 # --- the blobs scene with a labelled field -----------------------------------------------------------
@@ -127,7 +127,7 @@ def test_click_reads_column_x_row_y_and_refuses_pixels_outside(blobs):
     for x, y in ((w, 0), (0, h), (-1, 3), (3, -1), (10**6, 10**6)):
         with pytest.raises(InputError, match=f"outside the {w}x{h} image") as e:
             resolve_clicks(field, scene, [Click(v.name, x, y)])
-        assert str(e.value.path) == "--click"
+        assert e.value.setting == "clicks"
 
 
 def test_click_on_the_background_is_refused(blobs):
@@ -316,7 +316,7 @@ def test_unknown_ids_and_empty_selection_are_refused(hull_case):
     for bad in ([5], [3, 4], [0], [256]):
         with pytest.raises(InputError, match=r"unknown object id .* \(the field knows \[3, 7\]\)") as e:
             remove_objects(field, bad)
-        assert str(e.value.path) == "--id"
+        assert e.value.setting == "ids"
     with pytest.raises(InputError, match="nothing selected"):
         remove_objects(field, [])
 

@@ -226,8 +226,9 @@ def test_missing_and_bad_model_files(models, tmp_path, monkeypatch):
     enc, dec = models
     monkeypatch.delenv("INPAINT360GS_SAM_ENCODER", raising=False)
     monkeypatch.delenv("INPAINT360GS_SAM_DECODER", raising=False)
-    with pytest.raises(InputError, match="--sam-encoder"):
+    with pytest.raises(InputError, match="SamConfig.encoder") as e:
         SamSegmenter(SamConfig(decoder=str(dec))).prepare(None, None)
+    assert e.value.setting == "SamConfig.encoder"
     with pytest.raises(InputError, match="ONNX file not found"):
         SamSegmenter(SamConfig(encoder=str(tmp_path / "nope.onnx"), decoder=str(dec))).prepare(None, None)
     junk = tmp_path / "junk.onnx"

@@ -33,11 +33,11 @@ class AssociationConfig:
         """A copy with the variant's ``sigma`` and ``keep_near`` filled in; raises :class:`InputError`
         (naming the CLI option) for an unknown method, variant or comparison, or a value out of range."""
         if self.method not in ("kom", "tracker"):
-            raise InputError(f"unknown association method {self.method!r} (kom, tracker)", "--method")
+            raise InputError(f"unknown association method {self.method!r} (kom, tracker)", setting="AssociationConfig.method")
         if self.variant not in ("paper", "code"):
-            raise InputError(f"unknown association variant {self.variant!r} (paper, code)", "--variant")
+            raise InputError(f"unknown association variant {self.variant!r} (paper, code)", setting="AssociationConfig.variant")
         if self.compare not in ("visible", "all"):
-            raise InputError(f"unknown database comparison {self.compare!r} (visible, all)", "--compare")
+            raise InputError(f"unknown database comparison {self.compare!r} (visible, all)", setting="AssociationConfig.compare")
         paper = self.variant == "paper"
         out = replace(
             self,
@@ -45,11 +45,11 @@ class AssociationConfig:
             keep_near=(1.0 if paper else 0.3) if self.keep_near is None else self.keep_near,
         )
         if not 0 < out.sigma < 1:
-            raise InputError(f"GS-IoU threshold must lie in (0, 1), got {out.sigma}", "--sigma")
+            raise InputError(f"GS-IoU threshold must lie in (0, 1), got {out.sigma}", setting="AssociationConfig.sigma")
         if not 0 < out.keep_near <= 1:
-            raise InputError(f"near fraction must lie in (0, 1], got {out.keep_near}", "--keep-near")
+            raise InputError(f"near fraction must lie in (0, 1], got {out.keep_near}", setting="AssociationConfig.keep_near")
         if not (0 <= out.part_share <= 1 and 0 <= out.merge_share <= 1):
-            raise InputError("part and merge shares must lie in [0, 1] (0 = off)", "--part-share/--merge-share")
+            raise InputError("part and merge shares must lie in [0, 1] (0 = off)", setting="AssociationConfig.part_share/AssociationConfig.merge_share")
         if out.patch < 1:
-            raise InputError(f"patch size must be >= 1, got {out.patch}", "--patch")
+            raise InputError(f"patch size must be >= 1, got {out.patch}", setting="AssociationConfig.patch")
         return out

@@ -77,9 +77,50 @@ def _os_error(e: OSError) -> str:
     return f"{name}{': ' if name else ''}{e.strerror or _first_line(e)}"
 
 
-def _parse(prog: str, stages: dict[str, tuple[str, str]], argv: list[str], description: str) -> argparse.Namespace:
-    """The parsed arguments of the stage ``argv`` names (only its module is imported); a usage error
-    or --help raises SystemExit after printing (one line for an error)."""
+# Settings whose option is named otherwise than the setting (InputError.setting -> option dest); a
+# setting not listed is shown as the option whose dest is its field name, else as it is.
+OPTION_OF_SETTING = {
+    "VirtualViewsConfig.num_views": "virtual_views",
+    "DensifyConfig.grad_threshold": "densify_grad_threshold",
+    "DistillConfig.iterations": "distill_iterations",
+    "RefineConfig.iterations": "inpaint_iterations",
+    "RefineConfig.variant": "refine_variant",
+    "AssociationConfig.method": "association",
+    "SamConfig.encoder": "sam_encoder",
+    "SamConfig.decoder": "sam_decoder",
+    "SamConfig.stability_score_thresh": "sam_stability_thresh",
+    "clicks": "click",
+    "ids": "id",
+    "labels": "label",
+    "stages": "stage_benchmarks",
+    "evaluation": "eval",
+}
+
+
+def option_of(setting: str, parser: argparse.ArgumentParser | None) -> str:
+    """How the command line names ``setting`` (an :class:`InputError` setting, ``/``-joined ones
+    each): the option of ``parser`` that sets it, else the setting's own name."""
+    actions, parsers = {}, [parser] if parser is not None else []
+    while parsers:  # the stage's options, and those of its subcommands (``table record``)
+        for a in parsers.pop(0)._actions:
+            if isinstance(a, argparse._SubParsersAction):
+                parsers.extend(a.choices.values())
+            elif a.option_strings:
+                actions.setdefault(a.dest, a)
+    out = []
+    for one in setting.split("/"):
+        for dest in (OPTION_OF_SETTING.get(one), one.rpartition(".")[2]):
+            if dest in actions:
+                out.append(max(actions[dest].option_strings, key=len))
+                break
+        else:
+            out.append(one)
+    return "/".join(out)
+
+
+def _parse(prog: str, stages: dict[str, tuple[str, str]], argv: list[str], description: str) -> tuple[argparse.Namespace, argparse.ArgumentParser]:
+    """The parsed arguments of the stage ``argv`` names (only its module is imported) and that
+    stage's parser; a usage error or --help raises SystemExit after printing (one line for an error)."""
     parser = OneLineParser(prog=prog, description=description)
     sub = parser.add_subparsers(dest="stage", metavar="STAGE", required=True, parser_class=OneLineParser)
     wanted = argv[0] if argv and not argv[0].startswith("-") else None
@@ -90,7 +131,7 @@ def _parse(prog: str, stages: dict[str, tuple[str, str]], argv: list[str], descr
     args, extra = parser.parse_known_args(argv)
     if extra:  # reported by the stage's parser, so that the line names the stage
         sub.choices[args.stage].error(f"unrecognized arguments: {' '.join(extra)}")
-    return args
+    return args, sub.choices[args.stage]
 
 
 def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | None, description: str) -> int:
@@ -102,9 +143,10 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
     old_show = warnings.showwarning
     signal.signal(signal.SIGTERM, _on_sigterm)  # now already: loading a stage takes seconds (torch)
     signal.signal(signal.SIGINT, signal.default_int_handler)
+    stage_parser = None
     try:
         try:
-            args = _parse(prog, stages, argv, description)
+            args, stage_parser = _parse(prog, stages, argv, description)
         except SystemExit as e:  # --help (0) or a usage error (2, already printed on one line)
             return int(e.code or 0)
         where = f"{prog} {args.stage}"
@@ -112,6 +154,8 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
         install_signal_handlers()
         return int(importlib.import_module(stages[args.stage][0]).run(args) or 0)
     except InputError as e:
+        if e.setting is not None:
+            e = f"{option_of(e.setting, stage_parser)}: {e.message}"
         print(f"{where}: error: {e}", file=sys.stderr)
         return EXIT_INPUT
     except TrainingDivergedError as e:

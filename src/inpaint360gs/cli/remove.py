@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
                         protect_support=None if args.no_protect_support else RemovalConfig.protect_support,
                         support_column=args.support_column)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
-    where = "--click"
+    where = None  # the command line: check_clicks names the --click option
     if not clicks and not args.id:  # as `inpaint360gs run`: the clicks scene.json names
         from inpaint360gs.core.errors import InputError
         from inpaint360gs.pipeline.run import no_clicks_reason, scene_clicks

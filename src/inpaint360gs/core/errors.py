@@ -20,13 +20,17 @@ EXIT_SIGTERM = 143
 class InputError(Exception):
     """Bad user input: a missing or corrupt file, a wrong size, an unknown id, an empty selection.
 
-    The message must name the offending file (or argument) and the problem in one line.
+    The message must name the offending file and the problem in one line. A bad value of a setting
+    names the setting instead (``setting``: a config field as ``"TrainConfig.iterations"``, or a
+    parameter name as ``"clicks"``; several joined by ``/``); the CLI shows its option there.
     """
 
-    def __init__(self, message: str, path: str | Path | None = None):
+    def __init__(self, message: str, path: str | Path | None = None, *, setting: str | None = None):
         self.path = None if path is None else Path(path)
+        self.setting = setting if path is None else None
         self.message = message
-        super().__init__(f"{path}: {message}" if path is not None else message)
+        where = path if path is not None else setting
+        super().__init__(f"{where}: {message}" if where is not None else message)
 
 
 class TrainingDivergedError(RuntimeError):

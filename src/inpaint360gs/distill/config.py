@@ -30,7 +30,7 @@ class DistillConfig:
     def validate(self) -> None:
         """Raise :class:`InputError` (naming the field) for a setting out of range."""
         def bad(name: str, why: str) -> InputError:
-            return InputError(f"{name} {why}, got {getattr(self, name)}", name)
+            return InputError(f"{name} {why}, got {getattr(self, name)}", setting=f"DistillConfig.{name}")
 
         for name in ("iterations", "feature_dim", "knn", "log_every"):
             if int(getattr(self, name)) != getattr(self, name) or getattr(self, name) < 1:

@@ -72,11 +72,11 @@ def cache_views(model: Gaussians, labels: Labels, cfg: DistillConfig, where: str
     total = sum(c.width * c.height for c in cache.values())
     if sum(c.nnz for c in cache.values()) == 0:
         if cfg.min_weight > 0:
-            raise InputError(f"no compositing weight in any of the {len(cache)} training views is at least {cfg.min_weight:g}: lower it (weights lie in [0, 1])", "--min-weight")
+            raise InputError(f"no compositing weight in any of the {len(cache)} training views is at least {cfg.min_weight:g}: lower it (weights lie in [0, 1])", setting="DistillConfig.min_weight")
         raise InputError(f"no Gaussian of the model projects into any of the {len(cache)} training views; is the model from this scene?", where)
     if covered < MIN_COVERAGE * total:
         if cfg.min_weight > 0:
-            raise InputError(f"after dropping weights below {cfg.min_weight:g} the model covers {100 * covered / total:.2f}% of the training pixels: lower it", "--min-weight")
+            raise InputError(f"after dropping weights below {cfg.min_weight:g} the model covers {100 * covered / total:.2f}% of the training pixels: lower it", setting="DistillConfig.min_weight")
         raise InputError(
             f"the model covers only {100 * covered / total:.2f}% of the training pixels (alpha >= 0.5); is the model from this scene?", where
         )

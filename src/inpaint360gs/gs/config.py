@@ -96,17 +96,17 @@ class TrainConfig:
         from inpaint360gs.core.errors import InputError
 
         if self.iterations < 1:
-            raise InputError(f"iterations must be >= 1, got {self.iterations}", "--iterations")
+            raise InputError(f"iterations must be >= 1, got {self.iterations}", setting="TrainConfig.iterations")
         if not self.schedule_scale > 0:
-            raise InputError(f"schedule scale must be > 0, got {self.schedule_scale}", "--schedule-scale")
+            raise InputError(f"schedule scale must be > 0, got {self.schedule_scale}", setting="TrainConfig.schedule_scale")
         if not self.densify.grad_threshold > 0:
-            raise InputError(f"densification gradient threshold must be > 0, got {self.densify.grad_threshold}", "--densify-grad-threshold")
+            raise InputError(f"densification gradient threshold must be > 0, got {self.densify.grad_threshold}", setting="DensifyConfig.grad_threshold")
         if self.densify.max_gaussians < 0:
-            raise InputError(f"max Gaussians must be >= 0 (0: no cap), got {self.densify.max_gaussians}", "--max-gaussians")
+            raise InputError(f"max Gaussians must be >= 0 (0: no cap), got {self.densify.max_gaussians}", setting="DensifyConfig.max_gaussians")
         if not 0 <= self.sh_degree <= 3:
-            raise InputError(f"SH degree must be in 0..3, got {self.sh_degree}", "--sh-degree")
+            raise InputError(f"SH degree must be in 0..3, got {self.sh_degree}", setting="TrainConfig.sh_degree")
         if self.backend not in ("auto", "torch", "numba", "gsplat"):
-            raise InputError(f"unknown backend {self.backend!r}", "--backend")
+            raise InputError(f"unknown backend {self.backend!r}", setting="TrainConfig.backend")
 
     def effective(self) -> "TrainConfig":
         """This config with ``schedule_scale`` applied to the step-based fields (and reset to 1)."""

@@ -231,8 +231,8 @@ class Trainer:
                 raise InputError(mismatch, ckpt)
         elif resume and finished and not overwrite:
             raise InputError(
-                f"--resume: no {CHECKPOINT_NAME} to continue from, but the folder holds a previous run's "
-                f"{finished[0].name}; pass --overwrite to replace that run, or choose a new folder",
+                f"resume: no {CHECKPOINT_NAME} to continue from, but the folder holds a previous run's "
+                f"{finished[0].name}; overwrite that run, or choose a new folder",
                 self.out,
             )
         elif previous and not (resume or overwrite):

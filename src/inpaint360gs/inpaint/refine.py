@@ -67,9 +67,9 @@ class RefineConfig:
         """A copy with the variant's iterations and loss weights filled in; raises :class:`InputError`
         for an unknown variant or supervision."""
         if self.variant not in ("paper", "code"):
-            raise InputError(f"unknown 3D inpainting variant {self.variant!r} (paper, code)", "--refine-variant")
+            raise InputError(f"unknown 3D inpainting variant {self.variant!r} (paper, code)", setting="RefineConfig.variant")
         if self.supervision not in ("hybrid", "mask"):
-            raise InputError(f"unknown supervision {self.supervision!r} (hybrid, mask)", "--supervision")
+            raise InputError(f"unknown supervision {self.supervision!r} (hybrid, mask)", setting="RefineConfig.supervision")
         paper = self.variant == "paper"
         return replace(
             self,

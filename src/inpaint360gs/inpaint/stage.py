@@ -79,9 +79,9 @@ class InpaintConfig:
 
 def _check_config(cfg: InpaintConfig) -> None:
     """The settings' names, before any work (the CLI's choices check them too)."""
-    for value, allowed, flag in ((cfg.views, ("virtual", "training"), "--views"), (cfg.masks, ("unseen", "footprint"), "--masks"), (cfg.init, ("depth", "naive", "none"), "--init")):
+    for value, allowed, name in ((cfg.views, ("virtual", "training"), "views"), (cfg.masks, ("unseen", "footprint"), "masks"), (cfg.init, ("depth", "naive", "none"), "init")):
         if value not in allowed:
-            raise InputError(f"unknown setting {value!r} ({', '.join(allowed)})", flag)
+            raise InputError(f"unknown setting {value!r} ({', '.join(allowed)})", setting=f"InpaintConfig.{name}")
     cfg.refine.resolved()
 
 

@@ -212,7 +212,7 @@ def load_scene(
     if not root.is_dir():
         raise InputError("scene folder not found", root)
     if int(resize) != resize or resize < 1:
-        raise InputError(f"resize factor must be an integer >= 1, got {resize}", "--resize")
+        raise InputError(f"resize factor must be an integer >= 1, got {resize}", setting="resize")
     resize = int(resize)
     images_dir = root / layout.IMAGES_DIR
     if not images_dir.is_dir():

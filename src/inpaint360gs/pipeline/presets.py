@@ -73,5 +73,5 @@ DEFAULT_PRESET = "cpu"
 def get_preset(name: str) -> Preset:
     """The preset called ``name`` (a key of :data:`PRESETS`). Raises :class:`InputError` for any other name."""
     if name not in PRESETS:
-        raise InputError(f"unknown preset {name!r} (one of {', '.join(PRESETS)})", "--preset")
+        raise InputError(f"unknown preset {name!r} (one of {', '.join(PRESETS)})", setting="preset")
     return PRESETS[name]

@@ -123,7 +123,7 @@ class Runner:
         if not self.clicks and not self.ids:
             raise InputError(f"no object to remove: give --click VIEW:X,Y or --id N ({no_clicks_reason(scene)})", scene.root)
         # views and pixels now; what lies under them once the field exists
-        check_clicks(scene, self.clicks, "--click" if clicks else scene.root / "scene.json")
+        check_clicks(scene, self.clicks, None if clicks else scene.root / "scene.json")
         check_run_folder(self.layout.root)
         self.progress = progress
         self.announce = announce  # say on stdout what each stage does before it starts
@@ -203,7 +203,7 @@ class Runner:
         Raises: :class:`InputError` for an unknown ``until``, and whatever a stage raises (the
         stages before it stay recorded)."""
         if until not in STAGES:
-            raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", "--until")
+            raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", setting="until")
         sigs = self.signatures()
         self.remove_stale(sigs)
         done = []

@@ -65,7 +65,7 @@ def remove_objects(
     known = set(field_.object_ids) - {0}
     for oid in object_ids:
         if oid not in known:
-            raise InputError(f"unknown object id {oid} (the field knows {sorted(known)})", "--id")
+            raise InputError(f"unknown object id {oid} (the field knows {sorted(known)})", setting="ids")
     if not object_ids and not grown:
         raise InputError("nothing selected: give at least one --click or --id")
     probs = field_.gaussian_probs()  # (N, Q)

@@ -47,7 +47,7 @@ class Click:
             if not view.strip():
                 raise ValueError("no view")
         except (ValueError, OverflowError):  # OverflowError: an infinite coordinate
-            raise InputError(f"click {text!r} is not VIEW:X,Y (e.g. IMG_0003.png:120,88)", "--click") from None
+            raise InputError(f"click {text!r} is not VIEW:X,Y (e.g. IMG_0003.png:120,88)", setting="clicks") from None
         return Click(view, x, y)
 
     def __str__(self) -> str:
@@ -72,7 +72,7 @@ class ClickSelection:
     gaussians: np.ndarray | None = None
 
 
-def check_clicks(scene: Scene, clicks: list[Click], where: str | Path = "--click") -> list[View]:
+def check_clicks(scene: Scene, clicks: list[Click], where: str | Path | None = None) -> list[View]:
     """The view of each click; :class:`InputError` for an unknown view, an evaluation (``test_``) view
     or a pixel outside the image (what can be checked before the field exists). ``where``: where
     the clicks came from, named in the error."""
@@ -86,7 +86,7 @@ def check_clicks(scene: Scene, clicks: list[Click], where: str | Path = "--click
             raise InputError(f"click {c}: {view.name} is an evaluation (test_) view; click on a training view", scene.root)
         w, h = view.full_size or (view.camera.width, view.camera.height)
         if not (0 <= c.x < w and 0 <= c.y < h):
-            raise InputError(f"click {c} is outside the {w}x{h} image (clicks are in the coordinates of images/)", where)
+            raise InputError(f"click {c} is outside the {w}x{h} image (clicks are in the coordinates of images/)", where, setting=None if where else "clicks")
         views.append(view)
     return views
 
@@ -116,7 +116,7 @@ def select(field_: IdentityField, scene: Scene, clicks: list[Click], *, grow: bo
             continue
         weights, idx = _pixel_weights(field_, view, x, y, backend)
         if weights.sum() < 1e-3:
-            raise InputError(f"click {c} is on empty space: the scene renders nothing there", "--click")
+            raise InputError(f"click {c} is on empty space: the scene renders nothing there", setting="clicks")
         owners = np.asarray(field_.object_ids)[field_.gaussian_probs()[torch.from_numpy(idx)].argmax(dim=1).numpy()]
         share = {int(o): float(weights[owners == o].sum() / weights.sum()) for o in np.unique(owners)}
         best = max((o for o in share if o != 0), key=lambda o: share[o], default=None)
@@ -124,7 +124,7 @@ def select(field_: IdentityField, scene: Scene, clicks: list[Click], *, grow: bo
             out.append(ClickSelection(c, "contributions", object_id=best))
             continue
         if not grow:
-            raise InputError(f"click {c} is on the background (no object there in the rendered id map)", "--click")
+            raise InputError(f"click {c} is on the background (no object there in the rendered id map)", setting="clicks")
         if frame is None:
             frame = _frame(field_, scene)
         out.append(ClickSelection(c, "grown", gaussians=_grow(field_, frame, idx, weights, c, max_share)))
@@ -167,7 +167,7 @@ def _grow(field_: IdentityField, frame, idx: np.ndarray, weights: np.ndarray, cl
     k = int(np.searchsorted(np.cumsum(weights), 0.5 * weights.sum())) + 1
     front = idx[:k]  # the front-most Gaussians giving half the pixel's colour (contributions come front to back)
     if np.median(heights[front]) <= tau:
-        raise InputError(f"click {click} is on the support surface the objects stand on, not on an object standing there: click on the object", "--click")
+        raise InputError(f"click {click} is on the support surface the objects stand on, not on an object standing there: click on the object", setting="clicks")
     standing = (heights > tau) & (g.opacities.detach().cpu().numpy() > cc.grow_min_opacity)
     cand = np.flatnonzero(standing)
     seeds = np.intersect1d(front, cand)
@@ -179,7 +179,7 @@ def _grow(field_: IdentityField, frame, idx: np.ndarray, weights: np.ndarray, cl
     comp = np.isin(labels, np.unique(labels[pos]))
     if comp.sum() > max_share * len(cand):
         raise InputError(f"click {click}: what stands there is joined to most of the scene ({comp.sum()} of {len(cand)} Gaussians standing "
-                         "on the support); no single object can be told apart there", "--click")  # fmt: skip
+                         "on the support); no single object can be told apart there", setting="clicks")  # fmt: skip
     out = np.zeros(len(means), dtype=bool)
     out[cand[comp]] = True
     return out

@@ -98,7 +98,7 @@ def provenance(records: list[dict], config: dict | None, seeds: list[int] | None
                 continue
             k = (Path(info.get("path", "")).name, info["sha256"])
             weights.setdefault(k, {"name": name, "file": k[0], "sha256": k[1], "records": 0})["records"] += 1
-    seeds_source = "--seeds" if seeds else None
+    seeds_source = "given" if seeds else None
     labelled = sorted({int(r["labels"]["seed"]) for r in records if "seed" in r["labels"]})
     if not seeds and labelled:
         seeds, seeds_source = labelled, "record seed labels"

@@ -99,34 +99,34 @@ def parse_labels(items: list[str]) -> dict[str, str]:
         key, sep, value = item.partition("=")
         key, value = key.strip(), value.strip()
         if not sep or not _NAME.match(key):
-            raise InputError(f"expected KEY=VALUE with KEY a name, got {item!r}", "--label")
+            raise InputError(f"expected KEY=VALUE with KEY a name, got {item!r}", setting="labels")
         if not value or "\n" in value or "\r" in value:
-            raise InputError(f"label {key!r} needs a one-line, non-empty value, got {value!r}", "--label")
+            raise InputError(f"label {key!r} needs a one-line, non-empty value, got {value!r}", setting="labels")
         if key in labels:
-            raise InputError(f"label {key!r} given twice ({labels[key]!r} and {value!r})", "--label")
+            raise InputError(f"label {key!r} given twice ({labels[key]!r} and {value!r})", setting="labels")
         labels[key] = value
     labels.setdefault("kind", "method")
-    check_labels(labels, "--label")
+    check_labels(labels)
     return labels
 
 
-def check_labels(labels: object, where: str) -> dict[str, str]:
+def check_labels(labels: object, where: str | Path | None = None) -> dict[str, str]:
     """``labels`` after checking it is a dict of non-empty strings with the required keys, a known kind and an integer
-    seed; else :class:`InputError`."""
+    seed; else :class:`InputError` naming ``where`` (a record file), or the ``labels`` setting."""
     if not isinstance(labels, dict):
-        raise InputError("labels must be a JSON object", where)
+        raise InputError("labels must be a JSON object", where, setting="labels")
     for k in REQUIRED_LABELS:
         if k not in labels:
-            raise InputError(f"label {k!r} missing (every record needs {', '.join(REQUIRED_LABELS)})", where)
+            raise InputError(f"label {k!r} missing (every record needs {', '.join(REQUIRED_LABELS)})", where, setting="labels")
     for k, v in labels.items():
         if not isinstance(v, str) or not v:
-            raise InputError(f"label {k!r} must be a non-empty string, got {v!r}", where)
+            raise InputError(f"label {k!r} must be a non-empty string, got {v!r}", where, setting="labels")
     if labels.get("kind") not in KINDS:
-        raise InputError(f"label kind must be one of {', '.join(KINDS)}, got {labels.get('kind')!r}", where)
+        raise InputError(f"label kind must be one of {', '.join(KINDS)}, got {labels.get('kind')!r}", where, setting="labels")
     if "seed" in labels and not _SEED.match(labels["seed"]):
-        raise InputError(f"label seed must be a non-negative integer, got {labels['seed']!r}", where)
+        raise InputError(f"label seed must be a non-negative integer, got {labels['seed']!r}", where, setting="labels")
     if "ablation" in labels and labels["ablation"] not in "abcde":
-        raise InputError(f"label ablation must be a letter of paper Tab. 3 (a-e), got {labels['ablation']!r}", where)
+        raise InputError(f"label ablation must be a letter of paper Tab. 3 (a-e), got {labels['ablation']!r}", where, setting="labels")
     return labels
 
 
@@ -229,7 +229,7 @@ def parse_stage(item: str) -> tuple[str, Path]:
     """Split a ``NAME=BENCH.tsv`` argument into (name, path); :class:`InputError` when malformed."""
     name, sep, path = item.partition("=")
     if not sep or not _NAME.match(name.strip()) or not path:
-        raise InputError(f"expected NAME=BENCH.tsv, got {item!r}", "--stage")
+        raise InputError(f"expected NAME=BENCH.tsv, got {item!r}", setting="stages")
     return name.strip(), Path(path)
 
 
@@ -276,13 +276,13 @@ def make_record(
     skip_reason: str | None = None,
 ) -> dict:
     """Build a record (see the module docstring); every input is read and checked here."""
-    check_labels(labels, "--label")
+    check_labels(labels)
     if evaluation is None and not skip_reason:
-        raise InputError("without an evaluation the record needs --skip-reason (why this run has no metrics, e.g. no ground truth)", "--eval")
+        raise InputError("without an evaluation the record needs a skip reason (why this run has no metrics, e.g. no ground truth)", setting="skip_reason")
     if evaluation is not None and skip_reason:
-        raise InputError("--skip-reason is for runs without an evaluation; this one has --eval", "--skip-reason")
+        raise InputError("a skip reason is for runs without an evaluation; this one has an evaluation", setting="skip_reason")
     if skip_reason is not None and ("\n" in skip_reason or not skip_reason.strip()):
-        raise InputError("must be one non-empty line", "--skip-reason")
+        raise InputError("must be one non-empty line", setting="skip_reason")
     sources: dict = {"eval": None, "stages": {}, "models": []}
     if evaluation is not None:
         ev = read_evaluation(evaluation)
@@ -292,7 +292,7 @@ def make_record(
     bench = {}
     for name, path in stages:
         if name in bench:
-            raise InputError(f"stage {name!r} given twice", "--stage")
+            raise InputError(f"stage {name!r} given twice", setting="stages")
         bench[name] = read_benchmark(path)
         sources["stages"][name] = {"path": str(path), "sha256": sha256_file(path)}
     model = read_models(list(models)) if models else None

@@ -70,7 +70,7 @@ def segmenter_names() -> list[str]:
 def get_segmenter(name: str, **options) -> Segmenter:
     """Instantiate the segmenter registered as ``name`` with its options."""
     if name not in SEGMENTERS:
-        raise InputError(f"unknown segmenter {name!r} (known: {', '.join(SEGMENTERS)})", "--segmenter")
+        raise InputError(f"unknown segmenter {name!r} (known: {', '.join(SEGMENTERS)})", setting="segmenter")
     module, cls = SEGMENTERS[name].split(":")
     return getattr(importlib.import_module(module), cls)(**options)
 

@@ -73,10 +73,10 @@ class ClusterConfig:
         """Raise :class:`InputError` (naming the field) for a setting out of range."""
         for name, v in asdict(self).items():
             if not np.isfinite(v) or v < 0:
-                raise InputError(f"geometric segmenter setting {name} must be a finite number >= 0, got {v}", name)
+                raise InputError(f"geometric segmenter setting {name} must be a finite number >= 0, got {v}", setting=f"ClusterConfig.{name}")
         for name in ("eps", "upper_eps", "layer_bin", "max_radius", "max_scale", "plane_tol"):
             if getattr(self, name) <= 0:
-                raise InputError(f"geometric segmenter setting {name} must be > 0", name)
+                raise InputError(f"geometric segmenter setting {name} must be > 0", setting=f"ClusterConfig.{name}")
         if self.min_samples < 1 or self.plane_tries < 1:
             raise InputError("min_samples and plane_tries must be >= 1")
 

@@ -58,7 +58,7 @@ class OracleConfig:
         for name in ("split_prob", "merge_prob"):
             v = getattr(self, name)
             if not 0.0 <= v <= 1.0:
-                raise InputError(f"{name} must be in [0, 1], got {v}", name)
+                raise InputError(f"{name} must be in [0, 1], got {v}", setting=f"OracleConfig.{name}")
         if self.edge_px < 0 or self.min_part_px < 0 or self.seed < 0 or self.edge_rel < 0:
             raise InputError("edge_px, edge_rel, min_part_px and seed must be >= 0")
 

@@ -69,15 +69,15 @@ class SamConfig:
             raise InputError("points_per_side and image_size must be >= 1, min_mask_region_area >= 0")
         for name in ("pred_iou_thresh", "stability_score_thresh", "box_nms_thresh"):
             if not 0.0 <= getattr(self, name) <= 1.0:
-                raise InputError(f"{name} must be in [0, 1], got {getattr(self, name)}", name)
+                raise InputError(f"{name} must be in [0, 1], got {getattr(self, name)}", setting=f"SamConfig.{name}")
 
     def paths(self) -> tuple[Path, Path]:
         """(encoder, decoder) from the settings or the environment; InputError when missing."""
         out = []
-        for given, env, opt in ((self.encoder, ENV_ENCODER, "--sam-encoder"), (self.decoder, ENV_DECODER, "--sam-decoder")):
+        for given, env, name in ((self.encoder, ENV_ENCODER, "encoder"), (self.decoder, ENV_DECODER, "decoder")):
             value = given or os.environ.get(env)
             if not value:
-                raise InputError(f"the sam segmenter needs {opt} FILE.onnx (or ${env})", opt)
+                raise InputError(f"the sam segmenter needs the {name} FILE.onnx (or ${env})", setting=f"SamConfig.{name}")
             p = Path(value)
             if not p.is_file():
                 raise InputError("ONNX file not found", p)
@@ -129,7 +129,7 @@ def _session(path: Path):
     try:
         import onnxruntime as ort
     except ImportError:
-        raise InputError("the sam segmenter needs onnxruntime (pip install 'inpaint360gs[sam]')", "--segmenter") from None
+        raise InputError("the sam segmenter needs onnxruntime (pip install 'inpaint360gs[sam]')", setting="segmenter") from None
     opts = ort.SessionOptions()
     opts.intra_op_num_threads = max(1, torch.get_num_threads())
     opts.inter_op_num_threads = 1

@@ -90,7 +90,7 @@ def choose_trajectory(
     share of its image the region to fill covers. Returns the cameras and a record of the choice."""
     cfg = cfg or VirtualViewsConfig()
     if cfg.num_views < 2:
-        raise InputError(f"a virtual trajectory needs at least 2 views, got {cfg.num_views}", "--virtual-views")
+        raise InputError(f"a virtual trajectory needs at least 2 views, got {cfg.num_views}", setting="VirtualViewsConfig.num_views")
     frame, elevation, distance, phase = trajectory_geometry(cameras, centre)
     tried = []
     best = None
