@@ -59,7 +59,9 @@ def test_scene_folders_and_method_subsets(tmp_path):
     "bad,named",
     [("reduced=maybe", "reduced"), ("poses=guess", "poses"), ("train_scenes=[nosuchscene]", "nosuchscene"), ("methods=[magic]", "magic"),
      ("scenes=[./no/such/folder]", "no/such/folder"), ("segmenters=[]", "segmenters"), ("suite=train", "suite"), ("seeds=[]", "seeds"),
-     ("seeds=[1,1]", "repeat"), ("seeds=[-1]", "seeds"), ("ablation_scenes={abl_z: [cone]}", "abl_z")],
+     ("seeds=[1,1]", "repeat"), ("seeds=[-1]", "seeds"), ("ablation_scenes={abl_z: [cone]}", "abl_z"),
+     ("segmenters=[magic]", "unknown segmenter"), ("train={preset: fast, schedule_scale: auto}", "is no preset"),
+     ("captures={k: {photos: p, clicks: ['a.png:1,2'], preset: fast}}", "captures.k.preset")],
 )  # fmt: skip
 def test_bad_config_values_are_refused(tmp_path, bad, named):
     p = _dry_run(tmp_path, bad)

@@ -14,8 +14,13 @@ THREADS = config["threads"]
 BACKEND = config["backend"]
 # 3DGS settings: the library's preset (defined once, inpaint360gs/pipeline/presets.py), each value
 # replaced by the one `train:` gives
-from inpaint360gs.pipeline.presets import get_preset
+from inpaint360gs.pipeline.presets import PRESETS, get_preset
+from inpaint360gs.segment.base import SEGMENTERS as _KNOWN_SEGMENTERS
 
+for _where, _preset in [("train.preset", config["train"].get("preset", "cpu"))] + [
+        (f"captures.{n}.preset", c["preset"]) for n, c in config.get("captures", {}).items() if "preset" in c]:  # fmt: skip
+    if _preset not in PRESETS:
+        raise WorkflowError(f"config: {_where} {_preset!r} is no preset; known: {sorted(PRESETS)}")
 _PRESET = get_preset(config["train"].get("preset", "cpu"))
 TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else getattr(_PRESET, k) for k in ("iterations", "max_gaussians", "backend")}
 
@@ -120,6 +125,8 @@ unknown = sorted(set(config["methods"]) - set(METHODS))
 if unknown:
     raise WorkflowError(f"config: unknown method(s) {unknown}; known: {sorted(METHODS)}")
 SEGMENTERS = list(config["segmenters"])
+if set(SEGMENTERS) - set(_KNOWN_SEGMENTERS):
+    raise WorkflowError(f"config: unknown segmenter(s) {sorted(set(SEGMENTERS) - set(_KNOWN_SEGMENTERS))}; known: {sorted(_KNOWN_SEGMENTERS)}")
 
 # Seeds of every stage after 3DGS (segment, distill and inpaint take --seed; associate and remove are
 # deterministic functions of what they read): one run per scene and seed, 3DGS once per scene at `seed`.
