@@ -9,19 +9,11 @@ interface, and the segment stage writing them.
 Linking the per-view ids across views is the next floor's job (:mod:`inpaint360gs.associate`).
 """
 
-from importlib import import_module as _import_module
+from inpaint360gs.core.exports import lazy_exports
 
 # name -> module: imported on first use, so that the registry (``segment.base``) loads without the stage
 _EXPORTS = {"DEFAULT_SEGMENTER": "base", "SEGMENTERS": "base", "Segmenter": "base", "get_segmenter": "base", "segmenter_names": "base",
             "SEGMENT_JSON": "stage", "read_segments": "stage", "segment_stage": "stage"}  # fmt: skip
 __all__ = sorted(_EXPORTS)
 
-
-def __getattr__(name: str):
-    if name in _EXPORTS:
-        return getattr(_import_module(f"{__name__}.{_EXPORTS[name]}"), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
