@@ -225,14 +225,15 @@ def test_stage_defaults_come_from_the_library(tmp_path):
     cfg = yaml.safe_load((ROOT / "workflow" / "config" / "config.yaml").read_text())
     assert not {"iterations"} & set(cfg["distill"] or {}) and not {"iterations", "virtual_views"} & set(cfg["inpaint"])
 
-    def planned(stage, *extra):
+    def planned(*extra):
+        """The planned distill and inpaint command lines (one dry run)."""
         p = _dry_run(tmp_path, "scenes=[cone]", "seeds=[0]", "methods=[full]", "train_scenes=[]", *extra)
         assert p.returncode == 0, p.stderr[-2000:]
-        return next(line for line in p.stdout.splitlines() if f"inpaint360gs {stage} " in line)
+        lines = p.stdout.splitlines()
+        return [next(line for line in lines if f"inpaint360gs {stage} " in line) for stage in ("distill", "inpaint")]
 
-    assert f"--iterations {DistillConfig().iterations} " in planned("distill")
-    line = planned("inpaint")
-    assert f"--virtual-views {VirtualViewsConfig().num_views} " in line and "--inpaint-iterations" not in line
-    assert "--iterations 70 " in planned("distill", "distill={iterations: 70}")
-    line = planned("inpaint", "inpaint={iterations: 90, virtual_views: 7, extra_args: ''}")
-    assert "--inpaint-iterations 90 --virtual-views 7 " in line
+    distill, inpaint = planned()
+    assert f"--iterations {DistillConfig().iterations} " in distill
+    assert f"--virtual-views {VirtualViewsConfig().num_views} " in inpaint and "--inpaint-iterations" not in inpaint
+    distill, inpaint = planned("distill={iterations: 70}", "inpaint={iterations: 90, virtual_views: 7, extra_args: ''}")
+    assert "--iterations 70 " in distill and "--inpaint-iterations 90 --virtual-views 7 " in inpaint
