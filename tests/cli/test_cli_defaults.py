@@ -161,3 +161,42 @@ def test_library_code_names_settings_not_command_line_options():
     found = [f"{p.relative_to(src)}:{i}" for p in sorted(src.rglob("*.py")) if p.parent.name != "cli"
              for i, line in enumerate(p.read_text().splitlines(), 1) if re.search(r"""["']--[a-z]""", line) and "git" not in line]
     assert not found, found
+
+
+def _owner(source, name: str):
+    """The dataclass among ``source`` and its nested config fields that has the field ``name``."""
+    if not dataclasses.is_dataclass(source):
+        return None
+    fields = {f.name: f for f in dataclasses.fields(source)}
+    if name in fields:
+        return source
+    for f in fields.values():
+        if f.default_factory is not dataclasses.MISSING and dataclasses.is_dataclass(f.default_factory):
+            if (hit := _owner(f.default_factory, name)) is not None:
+                return hit
+    return None
+
+
+@pytest.mark.parametrize("stage", list(STAGES))
+def test_every_config_field_with_an_option_is_named_by_that_option(stage):
+    """An error about any config field that a stage's option sets names that option (cli.common.option_of):
+    the same option <-> field correspondence the defaults test above checks."""
+    from inpaint360gs.cli.common import option_of
+
+    parser = argparse.ArgumentParser()
+    importlib.import_module(STAGES[stage][0]).add_arguments(parser)
+    bad = []
+    for a in _options(stage):
+        if a.dest in NOT_SETTINGS or a.dest in ("resize", "llffhold") or (stage, a.dest) == ("capture-scores", "views") or a.option_strings[-1].startswith("--no-"):
+            continue  # not a setting, a scene argument, or a switch (no bad value to name)
+        if a.dest in RENAMED:
+            owner, name = RENAMED[a.dest]
+        else:
+            name = a.dest.removeprefix("sam_")
+            owner = next((o for s in SOURCES[stage] if (o := _owner(s, name)) is not None), None)
+        if owner is None or not dataclasses.is_dataclass(owner):
+            continue  # a function parameter: named as the parameter
+        got = option_of(f"{owner.__name__}.{name}", parser)
+        if got != max(a.option_strings, key=len):
+            bad.append(f"{owner.__name__}.{name} -> {got}, not {max(a.option_strings, key=len)}")
+    assert not bad, f"inpaint360gs {stage}: " + "; ".join(bad)

@@ -78,7 +78,8 @@ def _os_error(e: OSError) -> str:
 
 
 # Settings whose option is named otherwise than the setting (InputError.setting -> option dest); a
-# setting not listed is shown as the option whose dest is its field name, else as it is.
+# setting not listed is shown as the option whose dest is its field name (with its config's prefix,
+# OPTION_PREFIX), else as it is.
 OPTION_OF_SETTING = {
     "VirtualViewsConfig.num_views": "virtual_views",
     "DensifyConfig.grad_threshold": "densify_grad_threshold",
@@ -89,12 +90,14 @@ OPTION_OF_SETTING = {
     "SamConfig.encoder": "sam_encoder",
     "SamConfig.decoder": "sam_decoder",
     "SamConfig.stability_score_thresh": "sam_stability_thresh",
+    "SamConfig.min_mask_region_area": "sam_min_region_area",
     "clicks": "click",
     "ids": "id",
     "labels": "label",
     "stages": "stage_benchmarks",
     "evaluation": "eval",
 }
+OPTION_PREFIX = {"SamConfig": "sam_"}  # a config whose options all carry a prefix
 
 
 def option_of(setting: str, parser: argparse.ArgumentParser | None) -> str:
@@ -109,7 +112,8 @@ def option_of(setting: str, parser: argparse.ArgumentParser | None) -> str:
                 actions.setdefault(a.dest, a)
     out = []
     for one in setting.split("/"):
-        for dest in (OPTION_OF_SETTING.get(one), one.rpartition(".")[2]):
+        owner, _, name = one.rpartition(".")
+        for dest in (OPTION_OF_SETTING.get(one), OPTION_PREFIX.get(owner, "") + name):
             if dest in actions:
                 out.append(max(actions[dest].option_strings, key=len))
                 break
