@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib.util
 
+import cv2
 import numpy as np
 import pytest
 
@@ -487,3 +488,40 @@ def test_shiftmap_continues_a_straight_border():
     sel = hole & off
     right = np.all(np.abs(out - img) < 1e-9, axis=-1)
     assert right[sel].mean() > 0.95
+
+
+def test_shiftmap_keeps_each_side_of_a_border_through_a_slanted_hole():
+    """A slightly slanted border between a noisy pink region and wavy wood grain, crossed by a slanted
+    blob (a removed object's footprint): the border is found as the one straight boundary (the grain's
+    own stripes are texture, not structure), and no fill pixel takes the other side's colour; without
+    the structure line the offset statistics copy pink up into the grain."""
+    from inpaint360gs.inpaint.inpainters import _crossing_lines
+
+    h, w = 120, 160
+    rng = np.random.default_rng(0)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    border = 62.0 + 0.06 * (xx - w / 2)
+    below = yy > border
+    pink, wood = np.array([0.85, 0.5, 0.45]), np.array([0.55, 0.4, 0.25])
+    grain = 0.08 * np.sin(xx / 3.0 + 2 * np.sin(yy / 7.0))[..., None]
+    img = np.where(below[..., None], pink + 0.03 * rng.standard_normal((h, w, 1)), wood + grain)
+    img = np.clip(img, 0, 1).astype(np.float32)
+    hole = np.zeros((h, w), np.uint8)
+    cv2.ellipse(hole, (80, 60), (38, 16), 35, 0, 360, 1, -1)
+    hole = hole.astype(bool)
+
+    rgb8 = np.clip(np.round(img * 255), 0, 255).astype(np.uint8)
+    lines = _crossing_lines(cv2.cvtColor(rgb8, cv2.COLOR_RGB2Lab).astype(np.float64), hole)
+    assert len(lines) == 1
+    angle, rho = lines[0]
+    at = lambda x: (rho - x * np.cos(angle)) / np.sin(angle)  # noqa: E731  (the line's y at column x)
+    assert abs(at(40.0) - (62.0 + 0.06 * (40 - w / 2))) < 2.0 and abs(at(120.0) - (62.0 + 0.06 * (120 - w / 2))) < 2.0
+
+    off = np.abs(yy - border) > 1.0  # pixels right at the border may go either way
+
+    def wrong_side(out):
+        took_pink = np.linalg.norm(out - pink, axis=-1) < np.linalg.norm(out - wood, axis=-1)
+        return (took_pink != below)[hole & off].mean()
+
+    assert wrong_side(make_inpainter("shiftmap").rgb(img, hole)) < 0.01
+    assert wrong_side(make_inpainter("shiftmap", structure=False).rgb(img, hole)) > 0.05

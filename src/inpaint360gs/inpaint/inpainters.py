@@ -524,7 +524,106 @@ def _refine_offsets(lab, known, offs, r):
     return np.array(out, np.int64) if len(out) >= 2 else None
 
 
-def _shift_labels(lab, known, offsets, sweeps=4, miss=300.0, wr=3, wwin=4.0):
+def _crossing_lines(lab, hole, min_length=0.3, min_contrast=20.0, max_lines=8, max_gap=0.5, band=0.25):
+    """Straight boundaries of the known image that run into the hole: (angle, rho) of lines
+    x cos(a) + y sin(a) = rho (image x right, y down) whose collinear line segments (OpenCV's LSD on
+    each CIELab channel; within 3 degrees and 2.5 px, the same colours on each side) add up to at
+    least ``min_length`` x the hole's size (square root of its area), separate colours at least
+    ``min_contrast`` apart (CIELab, 2.5 px either side), come within ``max_gap`` x the size of the
+    hole and cross it; the ``max_lines`` strongest (length x contrast)."""
+    h, w = hole.shape
+    size = float(np.sqrt(hole.sum()))
+    if size < 4:
+        return []
+    near = cv2.dilate(hole.astype(np.uint8), np.ones((7, 7), np.uint8)) > 0
+    lsd = cv2.createLineSegmentDetector(cv2.LSD_REFINE_STD)
+    lab8 = np.clip(np.round(lab), 0, 255).astype(np.uint8)
+    segs = []
+    for ch in range(3):
+        found = lsd.detect(cv2.GaussianBlur(np.ascontiguousarray(lab8[..., ch]), (0, 0), 1.0))[0]
+        if found is not None:
+            segs += [tuple(map(float, r)) for r in found.reshape(-1, 4)]
+
+    band = max(6.0, band * size)
+
+    def side_mean(p0, p1, nrm, sign):
+        """mean colour of a band beside the segment (2.5 px to ``band`` away)"""
+        t = np.linspace(0.0, 1.0, 20)[:, None, None]
+        off = sign * np.linspace(2.5, band, 6)[None, :, None] * nrm
+        q = np.round(p0 + t * (p1 - p0) + off).reshape(-1, 2).astype(np.int64)
+        q = q[(q[:, 0] >= 0) & (q[:, 0] < w) & (q[:, 1] >= 0) & (q[:, 1] < h)]
+        q = q[~near[q[:, 1], q[:, 0]]]
+        return lab[q[:, 1], q[:, 0]].mean(0) if len(q) >= 20 else None
+
+    pieces = []
+    for x0, y0, x1, y1 in segs:
+        p0, p1 = np.array([x0, y0]), np.array([x1, y1])
+        length = float(np.linalg.norm(p1 - p0))
+        if length < 6:
+            continue
+        q = np.clip(np.round(p0 + np.linspace(0, 1, int(length) + 1)[:, None] * (p1 - p0)).astype(np.int64), 0, [w - 1, h - 1])
+        if near[q[:, 1], q[:, 0]].mean() > 0.1:  # an edge of the hole, not of the image
+            continue
+        d = (p1 - p0) / length
+        if d[0] < 0 or (d[0] == 0 and d[1] < 0):
+            d = -d
+        nrm = np.array([-d[1], d[0]])
+        a, b = side_mean(p0, p1, nrm, 1.0), side_mean(p0, p1, nrm, -1.0)
+        if a is not None and b is not None:
+            pieces.append((length, float(np.linalg.norm(a - b)), p0, p1, nrm, a, b))
+    pieces.sort(key=lambda r: (-r[0] * r[1], r[2][0], r[2][1]))
+    groups = []  # [normal, rho, colour a, colour b, [pieces]]
+    for pc in pieces:
+        mid = (pc[2] + pc[3]) / 2
+        for g in groups:
+            if abs(float(pc[4] @ g[0])) > np.cos(np.radians(3)) and abs(float(mid @ g[0]) - g[1]) < 2.5 and np.linalg.norm(pc[5] - g[2]) < 25 and np.linalg.norm(pc[6] - g[3]) < 25:
+                g[4].append(pc)
+                break
+        else:
+            groups.append([pc[4], float(mid @ pc[4]), pc[5], pc[6], [pc]])
+    ys, xs = np.nonzero(hole)
+    hp = np.stack([xs, ys], 1).astype(np.float64)
+    lines = []
+    for _, _, _, _, members in groups:
+        length = sum(m[0] for m in members)
+        contrast = sum(m[0] * m[1] for m in members) / length
+        # the line through all its pieces (total least squares on their end points, weighted by length)
+        pts = np.concatenate([[m[2], m[3]] for m in members])
+        wts = np.repeat([m[0] for m in members], 2)
+        centre = (pts * wts[:, None]).sum(0) / wts.sum()
+        nrm = np.linalg.eigh(((pts - centre) * wts[:, None]).T @ (pts - centre))[1][:, 0]
+        rho = float(centre @ nrm)
+        dist = hp @ nrm - rho
+        if length < min_length * size or contrast < min_contrast or not (dist.min() < -1 and dist.max() > 1):
+            continue
+        ends = np.concatenate([[m[2], m[3]] for m in members])
+        gap = np.sqrt(((hp[None] - ends[:, None]) ** 2).sum(-1)).min()
+        if gap <= max_gap * size:
+            lines.append((length * contrast, float(np.arctan2(nrm[1], nrm[0])), rho))
+    lines.sort(key=lambda r: -r[0])
+    kept = []  # a weaker line that stays within a tenth of the hole's size of a kept one across the hole is the same boundary
+    for _, a, r in lines:
+        n, d = np.array([np.cos(a), np.sin(a)]), np.array([-np.sin(a), np.cos(a)])
+        t = hp @ d
+        ends = r * n + np.array([t.min(), t.max()])[:, None] * d  # the line's piece across the hole
+        if all(np.abs(ends @ np.array([np.cos(b), np.sin(b)]) - q).max() > 0.1 * size for b, q in kept):
+            kept.append((a, r))
+    return kept[:max_lines]
+
+
+def _cells(shape, lines, known, min_known=256):
+    """Label of each pixel: which side of every line it lies on (a bit per line); -1 (any) for
+    the pixels of a cell with fewer than ``min_known`` known pixels."""
+    h, w = shape
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    cell = np.zeros(shape, np.int64)
+    for i, (a, rho) in enumerate(lines):
+        cell |= ((xx * np.cos(a) + yy * np.sin(a) - rho) > 0).astype(np.int64) << i
+    counts = np.bincount(cell[known], minlength=1 << len(lines))
+    return np.where(counts[cell] >= min_known, cell, -1)
+
+
+def _shift_labels(lab, known, offsets, sweeps=4, miss=300.0, wr=3, wwin=4.0, cells=None):
     """Shift-map labelling of the hole (``~known``): each hole pixel takes one of ``offsets`` (or, only
     where none is allowed, a unit step) whose source is known or lies in an earlier layer of the
     hole (L1 distance to the known region), so copies chain inward without cycles. Greedy layer by
@@ -552,6 +651,9 @@ def _shift_labels(lab, known, offsets, sweeps=4, miss=300.0, wr=3, wwin=4.0):
     valid = inb & (layer[syc, sxc] < pl[:, None])
     sidx = syc * w + sxc
     base = np.repeat(penalty[None, :], n, axis=0)
+    if cells is not None:  # a copy crosses no structure line (the source on the pixel's side of each), unless it must
+        cp, cs = cells[py, px][:, None], cells[syc, sxc]
+        base[(cp >= 0) & (cs >= 0) & (cs != cp)] += 1e8
     base[~valid] = np.inf
     # index of each hole pixel in the list
     hidx = -np.ones(h * w, np.int64)
@@ -656,13 +758,18 @@ class ShiftMapInpainter(Inpainter):
     (stripes, a border) continue across the hole. The offsets are gathered from the hole's bounding
     box grown by ``context`` x its size on every side (0: the whole image). Copies the input's own
     colours (no quantisation). With too few known patches for statistics it falls back to
-    ``cv2.inpaint`` TELEA (as ``telea``). Deterministic (no randomness, single-threaded k-d tree
-    queries); colour only. Replaces OpenCV's ``xphoto`` SHIFTMAP, whose output varies between
-    processes."""
+    ``cv2.inpaint`` TELEA (as ``telea``). With ``structure`` (the default), the straight boundaries
+    between regions that cross the hole (:func:`_crossing_lines`: a mat's border, not the stripes of
+    a texture) are continued first, as in structure propagation (Sun et al., "Image Completion with
+    Structure Propagation", SIGGRAPH 2005): they split the hole, each part copies only from the
+    context on its own side of every line, and offsets along each line join the labels. Deterministic
+    (no randomness, single-threaded k-d tree queries); colour only. Replaces OpenCV's ``xphoto``
+    SHIFTMAP, whose output varies between processes."""
 
     name: ClassVar[str] = "shiftmap"
     supports_depth: ClassVar[bool] = False
     context: float = 0.5
+    structure: bool = True
 
     def _fill_rgb(self, img, mask):
         if self.context > 0:
@@ -671,12 +778,12 @@ class ShiftMapInpainter(Inpainter):
             y0, y1 = max(0, int(ys.min() - gy)), min(mask.shape[0], int(ys.max() + gy) + 1)
             x0, x1 = max(0, int(xs.min() - gx)), min(mask.shape[1], int(xs.max() + gx) + 1)
             out = img.copy()
-            out[y0:y1, x0:x1] = self._shiftmap(img[y0:y1, x0:x1], mask[y0:y1, x0:x1])
+            out[y0:y1, x0:x1] = self._shiftmap(img[y0:y1, x0:x1], mask[y0:y1, x0:x1], self.structure)
             return out
-        return self._shiftmap(img, mask)
+        return self._shiftmap(img, mask, self.structure)
 
     @staticmethod
-    def _shiftmap(img, mask, patch=8, n_labels=40):
+    def _shiftmap(img, mask, structure=True, patch=8, n_labels=40):
         h, w = mask.shape
         rgb8 = np.clip(np.round(img * 255.0), 0, 255).astype(np.uint8)
         lab = cv2.cvtColor(rgb8, cv2.COLOR_RGB2Lab).astype(np.float64)
@@ -695,7 +802,17 @@ class ShiftMapInpainter(Inpainter):
             offs = _dominant_offsets(lab, known, patch, n_labels)
         if offs is None:
             return _cv_fill(img, mask, cv2.INPAINT_TELEA, 3.0)
-        src = _shift_labels(lab, known, offs)
+        cells = None
+        lines = _crossing_lines(lab, mask) if structure else []
+        if lines:
+            cells = _cells(mask.shape, lines, known)
+            # copies along each line (half, one and one and a half times the hole's extent), so that
+            # what runs beside it continues
+            ys, xs = np.nonzero(mask)
+            extent = max(np.ptp(ys), np.ptp(xs)) + 1
+            along = np.array([np.round(sign * k * extent * np.array([np.cos(a), -np.sin(a)])) for a, _ in lines for k in (0.5, 1.0, 1.5) for sign in (1, -1)], np.int64)
+            offs = np.unique(np.concatenate([offs, along[np.abs(along).sum(1) > 0]]), axis=0)
+        src = _shift_labels(lab, known, offs, cells=cells)
         return img.reshape(-1, 3)[src].reshape(img.shape)
 
 
@@ -741,7 +858,7 @@ DEPTH_METHODS = tuple(n for n, c in INPAINTERS.items() if c.supports_depth)
 
 def make_inpainter(name: str, **options) -> Inpainter:
     """The inpainter ``name`` (``INPAINTERS``) with its options (``radius``, ``ring``, ``seed``,
-    ``patch_size``, ``sigma``, ``lama_onnx``, ``output_range``); options only another method takes are
+    ``patch_size``, ``sigma``, ``context``, ``structure``, ``lama_onnx``, ``output_range``); options only another method takes are
     ignored, so one option set can serve an RGB and a depth method; an option no method takes is
     an InputError."""
     cls = INPAINTERS.get(name)
