@@ -528,9 +528,11 @@ def _crossing_lines(lab, hole, min_length=0.3, min_contrast=20.0, max_lines=8, m
     """Straight boundaries of the known image that run into the hole: (angle, rho) of lines
     x cos(a) + y sin(a) = rho (image x right, y down) whose collinear line segments (OpenCV's LSD on
     each CIELab channel; within 3 degrees and 2.5 px, the same colours on each side) add up to at
-    least ``min_length`` x the hole's size (square root of its area), separate colours at least
-    ``min_contrast`` apart (CIELab, 2.5 px either side), come within ``max_gap`` x the size of the
-    hole and cross it; the ``max_lines`` strongest (length x contrast)."""
+    least ``min_length`` x the hole's size (square root of its area), separate mean colours at least
+    ``min_contrast`` apart (CIELab, over a band from 2.5 px to ``band`` x the size on each side, so
+    the stripes of a texture do not count), come within ``max_gap`` x the size of the hole and cross
+    it. A weaker line within a tenth of the size of a stronger one across the hole is the same
+    boundary; the ``max_lines`` strongest (length x contrast), strongest first."""
     h, w = hole.shape
     size = float(np.sqrt(hole.sum()))
     if size < 4:
@@ -583,6 +585,7 @@ def _crossing_lines(lab, hole, min_length=0.3, min_contrast=20.0, max_lines=8, m
             groups.append([pc[4], float(mid @ pc[4]), pc[5], pc[6], [pc]])
     ys, xs = np.nonzero(hole)
     hp = np.stack([xs, ys], 1).astype(np.float64)
+    to_hole = cv2.distanceTransform((~hole).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)  # each pixel's distance to the hole
     lines = []
     for _, _, _, _, members in groups:
         length = sum(m[0] for m in members)
@@ -596,9 +599,8 @@ def _crossing_lines(lab, hole, min_length=0.3, min_contrast=20.0, max_lines=8, m
         dist = hp @ nrm - rho
         if length < min_length * size or contrast < min_contrast or not (dist.min() < -1 and dist.max() > 1):
             continue
-        ends = np.concatenate([[m[2], m[3]] for m in members])
-        gap = np.sqrt(((hp[None] - ends[:, None]) ** 2).sum(-1)).min()
-        if gap <= max_gap * size:
+        ends = np.clip(np.round(pts).astype(np.int64), 0, [w - 1, h - 1])
+        if to_hole[ends[:, 1], ends[:, 0]].min() <= max_gap * size:
             lines.append((length * contrast, float(np.arctan2(nrm[1], nrm[0])), rho))
     lines.sort(key=lambda r: -r[0])
     kept = []  # a weaker line that stays within a tenth of the hole's size of a kept one across the hole is the same boundary
