@@ -12,24 +12,13 @@ Public API:
   seen_by_object_inclusive_views(scene, points)  visibility oracle (point-leak checks)
 """
 
-from dataset_tools.synth.api import render_view
-from dataset_tools.synth.cameras import View
-from dataset_tools.synth.catalogue import SCENES, scene_spec, suite_scenes
-from dataset_tools.synth.generate import generate_scene
-from dataset_tools.synth.render import Rendering
-from dataset_tools.synth.scene import SynthScene, build_scene, load_scene
-from dataset_tools.synth.visibility import seen_by_object_inclusive_views
+from inpaint360gs.core.exports import lazy_exports
 
-__all__ = [
-    "SCENES",
-    "Rendering",
-    "SynthScene",
-    "View",
-    "build_scene",
-    "generate_scene",
-    "load_scene",
-    "render_view",
-    "scene_spec",
-    "seen_by_object_inclusive_views",
-    "suite_scenes",
-]
+# name -> module of this package, imported on first use: the workflow reads the catalogue at parse
+# time without loading the renderer
+_EXPORTS = {"render_view": "api", "View": "cameras", "SCENES": "catalogue", "scene_spec": "catalogue", "suite_scenes": "catalogue",
+            "generate_scene": "generate", "Rendering": "render", "SynthScene": "scene", "build_scene": "scene", "load_scene": "scene",
+            "seen_by_object_inclusive_views": "visibility"}  # fmt: skip
+__all__ = sorted(_EXPORTS)
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -30,7 +30,7 @@ from inpaint360gs.segment.cluster3d import ClusterConfig
 from inpaint360gs.segment.geometric import GeometricConfig
 from inpaint360gs.segment.oracle import OracleConfig
 from inpaint360gs.segment.sam import SamConfig
-from inpaint360gs.views.virtual import VirtualViewsConfig
+from inpaint360gs.views.config import VirtualViewsConfig
 
 # where each subcommand's settings live, searched in this order (nested dataclasses after their owner)
 SOURCES = {

@@ -220,7 +220,7 @@ def test_stage_defaults_come_from_the_library(tmp_path):
     import yaml
 
     from inpaint360gs.distill.config import DistillConfig
-    from inpaint360gs.views.virtual import VirtualViewsConfig
+    from inpaint360gs.views.config import VirtualViewsConfig
 
     cfg = yaml.safe_load((ROOT / "workflow" / "config" / "config.yaml").read_text())
     assert not {"iterations"} & set(cfg["distill"] or {}) and not {"iterations", "virtual_views"} & set(cfg["inpaint"])

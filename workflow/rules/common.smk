@@ -27,7 +27,7 @@ TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else getatt
 # Distillation and inpainting settings: the library's defaults (their config dataclasses), each
 # replaced by the value `distill:` / `inpaint:` gives
 from inpaint360gs.distill.config import DistillConfig
-from inpaint360gs.views.virtual import VirtualViewsConfig
+from inpaint360gs.views.config import VirtualViewsConfig
 
 
 def _given(section, key, default):

@@ -50,7 +50,7 @@ def inpaint_config(args: argparse.Namespace, seed: int, backend: str):
     """The :class:`InpaintConfig` the parsed inpainting ``args`` give, with ``seed`` and ``backend``."""
     from inpaint360gs.inpaint.refine import RefineConfig
     from inpaint360gs.inpaint.stage import InpaintConfig
-    from inpaint360gs.views.virtual import VirtualViewsConfig
+    from inpaint360gs.views.config import VirtualViewsConfig
 
     r = RefineConfig(
         variant=args.refine_variant, supervision=args.supervision, iterations=args.inpaint_iterations,

@@ -19,11 +19,12 @@ from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
-import torch
 
 from inpaint360gs.core.errors import InputError
 
 if TYPE_CHECKING:
+    import torch
+
     from inpaint360gs.core.gaussians import Gaussians
     from inpaint360gs.io.scene import Scene, View
 

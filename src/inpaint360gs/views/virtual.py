@@ -16,7 +16,6 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -24,17 +23,7 @@ import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
-
-
-@dataclass
-class VirtualViewsConfig:
-    """The virtual trajectory (supp. B "Virtual Camera Views")."""
-
-    num_views: int = 30  # L, the number of virtual views, >= 1
-    min_fill: float = 0.01  # the region to fill must cover at least this share of each image, in [0, 1] ...
-    max_fill: float = 0.50  # ... and at most this share
-    # candidate radii, as multiples of the training cameras' median distance to the object centre
-    radius_factors: tuple[float, ...] = (1.0, 0.85, 0.7, 0.55, 0.4)
+from inpaint360gs.views.config import VirtualViewsConfig
 
 
 def camera_up(cameras: Sequence[Camera]) -> np.ndarray:
