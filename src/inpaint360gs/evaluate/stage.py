@@ -268,6 +268,10 @@ def _pixel_metrics(table: _Table, renders: list[torch.Tensor], gts: list[torch.T
             for k in ("masked_psnr", "masked_ssim", "roi_psnr", "roi_ssim"):
                 table.set(name, k, None, NO_MASK_REASON)
             continue
+        if not bool(m.any()):  # no unseen pixel in this view: nothing to score in either mask convention
+            for k in ("masked_psnr", "masked_ssim", "roi_psnr", "roi_ssim"):
+                table.set(name, k, None, EMPTY_ROI_REASON)
+            continue
         table.set(name, "masked_psnr", masked_psnr(r, g, m))
         table.set(name, "masked_ssim", masked_ssim(r, g, m))
         table.set(name, "roi_psnr", roi_psnr(r, g, m), EMPTY_ROI_REASON)
@@ -289,7 +293,8 @@ def _lpips_metrics(
                 name = table.views[i]
                 reason = NO_MASK_REASON if mb[j] is None else EMPTY_ROI_REASON
                 table.set(name, key, float(full[j]))
-                table.set(name, f"masked_{key}", None if mb[j] is None else float(masked[j]), reason)
+                empty = mb[j] is None or not bool(mb[j].any())
+                table.set(name, f"masked_{key}", None if empty else float(masked[j]), reason)
                 table.set(name, f"roi_{key}", roi[j], reason)
             if net == "vgg":
                 vgg_r.append(fr)

@@ -16,7 +16,7 @@ Undefined and infinite values:
 
 - an empty mask has no ROI: ``roi_*`` return None (never NaN); :func:`roi_undefined_reason` gives
   the reason string. ``masked_*`` stay defined on an empty mask (both images are all zero), as in
-  the paper's code;
+  the paper's code; the evaluate stage scores such a view in neither convention;
 - PSNR of a render equal to the ground truth on every evaluated pixel is ``+inf`` here, as in the
   paper's code. JSON cannot hold inf, so :func:`~inpaint360gs.evaluate.stage.evaluate_stage`
   stores ``null`` with the reason ``INFINITE_PSNR_REASON``, and a mean over views that include
