@@ -613,3 +613,37 @@ def test_a_thinned_surface_beside_the_hole_gives_the_fill_its_colour_not_a_darke
     assert np.abs(seen["image"][thin & near] - colour).max() < 0.02
     # farther out the render is left as the 3DGS has it
     assert np.allclose(seen["image"][thin & ~near], o.color.numpy()[thin & ~near], atol=1e-6)
+
+
+def test_the_support_view_is_kept_over_a_floor_a_little_off_its_plane_and_left_out_under_a_table_top():
+    """The view straight above a footprint (a 1 x 1 square, object height 1, on the plane z = 0) is
+    used when the floor it sees lies near the plane (here 0.1 above it: 3.5 % of the camera's
+    distance, what a 3DGS floor fitted from low photos shows) and left out when a table top 1.5
+    above the support hides it."""
+    from inpaint360gs.core.support import Footprint
+    from inpaint360gs.inpaint.stage import _support_views
+
+    fp = Footprint(np.array([0.0, 0.0, 1.0]), 0.0, np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 1.0)
+    like = floor_cameras([0], w=48, h=36, f=36.0)[0]
+
+    def sheet(z: float) -> Gaussians:
+        g = np.arange(-3.0, 3.0 + 1e-9, 0.05)
+        x, y = np.meshgrid(g, g)
+        keep = ~((np.abs(x) < 0.5) & (np.abs(y) < 0.5))  # the footprint itself is empty after removal
+        pts = np.stack([x[keep], y[keep], np.full(keep.sum(), z)], 1)
+        s = Gaussians.from_points(torch.tensor(pts, dtype=torch.float32), torch.full((len(pts), 3), 0.5), sh_degree=0, init_opacity=0.99,
+                                  scales=torch.full((len(pts),), 0.0375))  # fmt: skip
+        s.log_scales.data[:, 2] = math.log(1e-3)
+        return s
+
+    cam_height = float(_support_camera_height(fp, like))
+    assert 0.1 / cam_height > 0.02  # the floor is off its plane by more than 2 % of the depth
+    assert len(_support_views([fp], like, sheet(0.0), "torch")) == 1
+    assert len(_support_views([fp], like, sheet(0.1), "torch")) == 1
+    assert _support_views([fp], like, sheet(1.5), "torch") == []
+
+
+def _support_camera_height(fp, like) -> float:
+    from inpaint360gs.views.virtual import support_camera
+
+    return float(support_camera(fp, like).center[2])
