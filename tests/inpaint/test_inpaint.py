@@ -619,7 +619,7 @@ def test_the_support_view_is_kept_over_a_floor_a_little_off_its_plane_and_left_o
     """The view straight above a footprint (a 1 x 1 square, object height 1, on the plane z = 0) is
     used when the floor it sees lies near the plane (here 0.1 above it: 3.5 % of the camera's
     distance, what a 3DGS floor fitted from low photos shows) and left out when a table top 1.5
-    above the support hides it."""
+    above the support hides it; for a flat object 2 % of the depth is the tolerance."""
     from inpaint360gs.core.support import Footprint
     from inpaint360gs.inpaint.stage import _support_views
 
@@ -641,6 +641,9 @@ def test_the_support_view_is_kept_over_a_floor_a_little_off_its_plane_and_left_o
     assert len(_support_views([fp], like, sheet(0.0), "torch")) == 1
     assert len(_support_views([fp], like, sheet(0.1), "torch")) == 1
     assert _support_views([fp], like, sheet(1.5), "torch") == []
+    # a flat object (height 0.05): 2 % of the depth still counts, as it always did
+    flat = Footprint(fp.normal, fp.offset, fp.outline, 0.05)
+    assert len(_support_views([flat], like, sheet(0.05), "torch")) == 1
 
 
 def _support_camera_height(fp, like) -> float:

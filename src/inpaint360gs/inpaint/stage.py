@@ -101,10 +101,10 @@ def _per_gaussian_ids(field_: IdentityField) -> np.ndarray:
 def _support_views(footprints: list, like, edited: Gaussians, backend: str, min_agree: float = 0.5, tolerance: float = 0.25) -> list:
     """A camera straight above each footprint whose support it sees: where the edited scene renders
     a surface around the footprint, at least ``min_agree`` of it must lie within ``tolerance`` x the
-    object's height of the support plane; a view whose support is hidden (the object stood under a
-    table top) is left out. The tolerance is in object heights, not in per cent of the depth: a 3DGS
-    floor fitted from low photos renders a few per cent of the depth off its plane from above, while
-    what hides a support stands about an object's height over it."""
+    object's height (or 2 % of the depth, if more) of the support plane; a view whose support is
+    hidden (the object stood under a table top) is left out. The tolerance is in object heights: a
+    3DGS floor trained from low photos renders a few per cent of the depth off its plane from above,
+    while what hides a support stands about an object's height over it."""
     out = []
     for i, fp in enumerate(footprints):
         cam = support_camera(fp, like, name=f"support_{i:02d}")
@@ -114,7 +114,7 @@ def _support_views(footprints: list, like, edited: Gaussians, backend: str, min_
         a = o.alpha.numpy()
         d = (o.depth / o.alpha.clamp_min(1e-6)).numpy()
         ring = (a >= 0.5) & np.isfinite(z)
-        if ring.any() and float(np.mean(np.abs(d[ring] - z[ring]) <= tolerance * fp.height)) >= min_agree:
+        if ring.any() and float(np.mean(np.abs(d[ring] - z[ring]) <= np.maximum(tolerance * fp.height, 0.02 * z[ring]))) >= min_agree:
             out.append(cam)
     return out
 
