@@ -622,6 +622,7 @@ def test_the_support_view_is_kept_over_a_floor_a_little_off_its_plane_and_left_o
     above the support hides it; for a flat object 2 % of the depth is the tolerance."""
     from inpaint360gs.core.support import Footprint
     from inpaint360gs.inpaint.stage import _support_views
+    from inpaint360gs.views.virtual import support_camera
 
     fp = Footprint(np.array([0.0, 0.0, 1.0]), 0.0, np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 1.0)
     like = floor_cameras([0], w=48, h=36, f=36.0)[0]
@@ -636,7 +637,7 @@ def test_the_support_view_is_kept_over_a_floor_a_little_off_its_plane_and_left_o
         s.log_scales.data[:, 2] = math.log(1e-3)
         return s
 
-    cam_height = float(_support_camera_height(fp, like))
+    cam_height = float(support_camera(fp, like).center[2])
     assert 0.1 / cam_height > 0.02  # the floor is off its plane by more than 2 % of the depth
     assert len(_support_views([fp], like, sheet(0.0), "torch")) == 1
     assert len(_support_views([fp], like, sheet(0.1), "torch")) == 1
@@ -644,9 +645,3 @@ def test_the_support_view_is_kept_over_a_floor_a_little_off_its_plane_and_left_o
     # a flat object (height 0.05): 2 % of the depth still counts, as it always did
     flat = Footprint(fp.normal, fp.offset, fp.outline, 0.05)
     assert len(_support_views([flat], like, sheet(0.05), "torch")) == 1
-
-
-def _support_camera_height(fp, like) -> float:
-    from inpaint360gs.views.virtual import support_camera
-
-    return float(support_camera(fp, like).center[2])

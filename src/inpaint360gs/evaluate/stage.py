@@ -264,13 +264,9 @@ def _pixel_metrics(table: _Table, renders: list[torch.Tensor], gts: list[torch.T
         smap = ssim_index_map(r, g)
         table.set(name, "psnr", psnr(r, g))
         table.set(name, "ssim", float(smap.mean()))
-        if m is None:
+        if m is None or not bool(m.any()):  # no mask, or no unseen pixel in this view: nothing to score in either mask convention
             for k in ("masked_psnr", "masked_ssim", "roi_psnr", "roi_ssim"):
-                table.set(name, k, None, NO_MASK_REASON)
-            continue
-        if not bool(m.any()):  # no unseen pixel in this view: nothing to score in either mask convention
-            for k in ("masked_psnr", "masked_ssim", "roi_psnr", "roi_ssim"):
-                table.set(name, k, None, EMPTY_ROI_REASON)
+                table.set(name, k, None, NO_MASK_REASON if m is None else EMPTY_ROI_REASON)
             continue
         table.set(name, "masked_psnr", masked_psnr(r, g, m))
         table.set(name, "masked_ssim", masked_ssim(r, g, m))
