@@ -549,9 +549,10 @@ def test_plane_transfer_carries_an_earlier_views_fill_by_the_plane_homography():
     assert not plane_transfer(cam2, z, mask, [(empty, plane_depth(first.camera)[0])], color, depth).any()
 
 
-def test_with_footprints_only_the_fill_and_the_footprints_surroundings_move(hole_case):
+def test_with_footprints_only_the_fill_and_the_support_around_it_move(hole_case):
     """The stage's active rows (footprint_rows): the floor within 0.25 of the footprint's size around
-    it; everything else comes back bit for bit after 3D inpainting, the new Gaussians are refitted."""
+    it, not a wall standing beside the hole inside that margin (another object, a backdrop);
+    everything else comes back bit for bit after 3D inpainting, the new Gaussians are refitted."""
     from inpaint360gs.core.support import Footprint
     from inpaint360gs.inpaint.stage import footprint_rows, in_columns
 
@@ -559,18 +560,76 @@ def test_with_footprints_only_the_fill_and_the_footprints_surroundings_move(hole
     square = np.array([[-0.35, -0.35], [0.35, -0.35], [0.35, 0.35], [-0.35, 0.35]])
     n = np.array([0.0, 0.0, 1.0])
     fp = Footprint(n, 0.0, square, 0.5)
-    active = footprint_rows(edited, [fp], 0.25)
-    xy = edited.means[:, :2].double().numpy()
+    zs, ys = np.meshgrid(np.arange(0.1, 0.45, 0.05), np.arange(-0.3, 0.31, 0.05))
+    wall = Gaussians.from_points(torch.tensor(np.stack([np.full(zs.size, 0.45), ys.ravel(), zs.ravel()], 1), dtype=torch.float32),
+                                 torch.full((zs.size, 3), 0.8), sh_degree=1, init_opacity=0.9, scales=torch.full((zs.size,), 0.03))  # fmt: skip
+    scene = cat(edited, wall)
+    active = footprint_rows(scene, [fp], 0.25)
+    xy = scene.means[:, :2].double().numpy()
     near = (np.abs(xy) <= 0.35 + 0.25 * 0.7 + 1e-6).all(axis=1)  # the square grown by 0.25 x its size (0.7), mitred
-    assert np.array_equal(active.numpy(), near & (np.abs(edited.means[:, 2].numpy()) < 0.5))
+    assert near[len(edited):].all()  # the wall stands inside the grown column ...
+    assert np.array_equal(active.numpy(), near & (np.abs(scene.means[:, 2].numpy()) < 0.05))  # ... and stays: only the support moves
     assert in_columns(new.means.double().numpy(), [fp], 0.25).all()  # the new Gaussians lie in the column
     c = RefineConfig(iterations=20, seed=0)
-    final, _ = refine(edited, new, views, c, region=floor.means[hole].double().numpy(), extent=2.0, active=active)
-    static = edited.subset(~active)
+    final, _ = refine(scene, new, views, c, region=floor.means[hole].double().numpy(), extent=2.0, active=active)
+    static = scene.subset(~active)
     k = len(static)
     for p in PARAMS:
         assert torch.equal(getattr(final, p)[:k], getattr(static, p)), p
     assert not torch.equal(final.sh0[-len(new):], new.sh0)
+
+
+def test_the_fill_keeps_new_gaussians_on_the_support_and_drops_those_standing_in_the_column():
+    """fill_rows with a 1 x 1 footprint of an object 1 high: a point on the support inside the
+    column, or a little below it, is kept; one standing a third of the height over the support
+    inside the grown column (empty air after the removal) is dropped, as is one outside the column."""
+    from inpaint360gs.core.support import Footprint
+    from inpaint360gs.inpaint.stage import InpaintConfig, fill_rows
+
+    fp = Footprint(np.array([0.0, 0.0, 1.0]), 0.0, np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]]), 1.0)
+    pts = np.array([[0.0, 0.0, 0.0], [0.3, -0.2, 0.05], [0.2, 0.1, -0.3], [0.0, 0.0, 0.33], [0.4, 0.4, 1.5], [0.9, 0.0, 0.0]])
+    assert fill_rows(pts, [fp], InpaintConfig()).tolist() == [True, True, True, False, False, False]
+
+
+def test_a_faint_haze_over_the_hole_does_not_hide_the_support_an_opaque_sheet_does(hole_case):
+    """revealed_geometry over the floor with a hole: the support's depth is given where the rays meet
+    the footprint grown by its margin. Four layers of faint Gaussians (opacity 0.02) over it
+    pull the alpha-normalised depth of the floor around the hole more than 3 % in front of it, but
+    give less than half of the colour (share_in_front), so the support stays; one opaque sheet hides it."""
+    from inpaint360gs.core.support import Footprint
+    from inpaint360gs.inpaint.stage import InpaintConfig, revealed_geometry
+    from inpaint360gs.views.unseen import share_in_front
+
+    floor, hole, edited, new, views = hole_case
+    fp = Footprint(np.array([0.0, 0.0, 1.0]), 0.0, np.array([[-0.35, -0.35], [0.35, -0.35], [0.35, 0.35], [-0.35, 0.35]]), 0.5)
+    cfg = InpaintConfig()
+    cam = views[0].camera
+    plane = [(fp.normal, fp.offset)]
+    g = np.arange(-0.5, 0.51, 0.05)
+    x, y = np.meshgrid(g, g)
+
+    def sheets(heights, opacity: float, scale: float) -> Gaussians:
+        pts = np.concatenate([np.stack([x.ravel(), y.ravel(), np.full(x.size, z)], 1) for z in heights])
+        s = Gaussians.from_points(torch.tensor(pts, dtype=torch.float32), torch.full((len(pts), 3), 0.9), sh_degree=1, init_opacity=opacity,
+                                  scales=torch.full((len(pts),), scale))  # fmt: skip
+        s.log_scales.data[:, 2] = math.log(1e-3)
+        return s
+
+    bare = revealed_geometry(cam, edited, [fp], cfg).support
+    assert np.isfinite(bare).sum() > 50
+    hazy = cat(edited, sheets([0.3, 0.4, 0.5, 0.6], 0.02, 0.05))
+    with torch.no_grad():
+        o = render(hazy, cam)
+    d, alpha = normalised_depth(o).numpy(), o.alpha.numpy()
+    pulled = np.isfinite(bare) & (alpha >= 0.5) & (d < 0.97 * bare)  # where the depth alone would call the support hidden
+    assert pulled.sum() > 0.5 * np.isfinite(bare).sum()
+    assert share_in_front(hazy, cam, plane)[np.isfinite(bare)].max() < 0.5
+    assert np.array_equal(revealed_geometry(cam, hazy, [fp], cfg).support, bare)
+    opaque = cat(edited, sheets([0.3], 0.99, 0.04))
+    covered = share_in_front(opaque, cam, plane) >= 0.5
+    assert covered.sum() > 20
+    hidden = revealed_geometry(cam, opaque, [fp], cfg).support
+    assert np.isinf(hidden[covered]).all() and np.array_equal(hidden[~covered], bare[~covered])
 
 
 def test_a_thinned_surface_beside_the_hole_gives_the_fill_its_colour_not_a_darkening():

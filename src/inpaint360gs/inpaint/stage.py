@@ -66,10 +66,12 @@ class InpaintConfig:
     # within this x the footprint's size around it (footprint_rows); without, those near the removed
     # Gaussians (refine.RefineConfig.region_margin).
     footprint_margin: float = 0.25  # x the footprint's size, >= 0
-    # A surface the removal reveals off the support plane is filled (at its rendered depth), and new
-    # Gaussians are kept, within this x the footprint's size of the footprint's column. 0: inside the
-    # column only; beyond it the rendered depth is the 3DGS's uncertain one and fill Gaussians put
-    # there show as smears from other views (docs/architecture.md, "What the removal emptied is filled on its support").
+    # A surface the removal reveals off the support plane is part of the region to fill (at its
+    # rendered depth), and new Gaussians are kept, within this x the footprint's size of the
+    # footprint's column; new Gaussians standing over the support in the column are dropped
+    # (fill_rows). 0: inside the column only; beyond it the rendered depth is the 3DGS's uncertain
+    # one and fill Gaussians put there show as smears from other views (docs/architecture.md,
+    # "What the removal emptied is filled on its support").
     reveal_margin: float = 0.0  # x the footprint's size, >= 0
     virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)  # step 1: the virtual cameras
     unseen: UnseenConfig = field(default_factory=UnseenConfig)  # the unseen (to be filled) masks
@@ -119,14 +121,26 @@ def _support_views(footprints: list, like, edited: Gaussians, backend: str, min_
     return out
 
 
-def in_columns(points: np.ndarray, footprints: list, margin: float) -> np.ndarray:
-    """Which ``points`` (N, 3) lie in any footprint's column (from one object height below the
-    support to twice above it) grown by ``margin`` x its size."""
+def in_columns(points: np.ndarray, footprints: list, margin: float, low: float = -1.0, high: float = 2.0) -> np.ndarray:
+    """Which ``points`` (N, 3) lie in any footprint's column grown by ``margin`` x its size, between
+    ``low`` and ``high`` x the object's height above the support (default: from one height below
+    to twice above)."""
     out = np.zeros(len(points), dtype=bool)
     for fp in footprints:
         h = fp.heights(points)
-        out |= (fp.distance(points) <= margin * fp.size) & (h > -fp.height) & (h < 2.0 * fp.height)
+        out |= (fp.distance(points) <= margin * fp.size) & (h > low * fp.height) & (h < high * fp.height)
     return out
+
+
+def fill_rows(points: np.ndarray, footprints: list, cfg: "InpaintConfig") -> np.ndarray:
+    """Which new Gaussians (centres ``points``) the fill keeps: those in the footprints' columns
+    grown by ``reveal_margin``, except those standing (higher than STANDING x the object's height
+    over the support) in the columns grown by ``footprint_margin``. After the removal that space
+    is empty air over the support; a fill point there comes from a depth the 2D inpainter made up
+    (a plane through a ring of support and backdrop) and shows as haze from other views."""
+    from inpaint360gs.core.support import STANDING
+
+    return in_columns(points, footprints, cfg.reveal_margin) & ~in_columns(points, footprints, cfg.footprint_margin, STANDING, 2.0)
 
 
 def support_depth(camera, footprints: list, margin: float) -> np.ndarray:
@@ -147,10 +161,14 @@ def support_depth(camera, footprints: list, margin: float) -> np.ndarray:
 
 
 def footprint_rows(model: Gaussians, footprints: list, margin: float) -> torch.Tensor:
-    """Gaussians of ``model`` in the footprints' grown columns (:func:`in_columns`): the support
-    around the hole, what the 3D inpainting may adjust besides the new Gaussians (the seams of
-    paper Sec. 3.5); the rest of the scene, which the photos explain, stays as it was."""
-    return torch.from_numpy(in_columns(model.means.detach().cpu().double().numpy(), footprints, margin))
+    """Gaussians of ``model`` on the support around the hole: in the footprints' columns grown by
+    ``margin`` x their size, within STANDING x the object's height of the support plane. They are
+    what the 3D inpainting may adjust besides the new Gaussians (the seams of paper Sec. 3.5). The
+    rest of the scene, which the photos explain, stays as it was. That includes what stands near
+    the hole, such as another object or a backdrop: adjusted to the fill's targets, it hazes."""
+    from inpaint360gs.core.support import STANDING
+
+    return torch.from_numpy(in_columns(model.means.detach().cpu().double().numpy(), footprints, margin, -STANDING, STANDING))
 
 
 @dataclass
@@ -167,8 +185,11 @@ def revealed_geometry(camera, edited: Gaussians, footprints: list, cfg: "Inpaint
     """The support's depth where ``camera``'s ray meets it inside a footprint grown by
     ``footprint_margin`` and no surface of the edited scene stands in front of it (an object behind
     the removed one, a backdrop), and the edited scene's own surface with whether it lies near the
-    removed object (inside the columns grown by ``reveal_margin``)."""
-    from inpaint360gs.views.unseen import backproject, normalised_depth
+    removed object (inside the columns grown by ``reveal_margin``). Something stands in front where
+    Gaussians nearer than the support give at least ``unseen.min_alpha`` of the pixel's colour
+    (:func:`~inpaint360gs.views.unseen.share_in_front`): a faint haze left over the hole does not
+    hide the support, although its alpha-normalised depth lies in front of it."""
+    from inpaint360gs.views.unseen import backproject, normalised_depth, share_in_front
 
     z = support_depth(camera, footprints, cfg.footprint_margin)
     o = render(edited, camera, backend=cfg.backend)
@@ -176,7 +197,9 @@ def revealed_geometry(camera, edited: Gaussians, footprints: list, cfg: "Inpaint
     d = normalised_depth(o).numpy().astype(np.float64)
     surface = np.where(alpha >= cfg.unseen.min_alpha, d, np.nan)
     has = np.isfinite(surface)
-    z = np.where(has & (surface < 0.97 * z), np.inf, z)  # something stands in front of the support there
+    if np.isfinite(z).any():
+        planes = [(fp.normal, fp.offset) for fp in footprints]
+        z = np.where(share_in_front(edited, camera, planes, backend=cfg.backend) >= cfg.unseen.min_alpha, np.inf, z)
     near = np.zeros(alpha.shape, dtype=bool)
     rows, cols = np.nonzero(has)
     if len(rows):
@@ -302,7 +325,7 @@ def inpaint_scene(
     if cfg.init == "depth":
         new = depth_guided_init(views, sh_degree=edited.sh_degree)
         if footprints:  # the fill lies where the removal emptied or revealed something
-            new = new.subset(torch.from_numpy(in_columns(new.means.detach().double().numpy(), footprints, cfg.reveal_margin)))
+            new = new.subset(torch.from_numpy(fill_rows(new.means.detach().double().numpy(), footprints, cfg)))
     elif cfg.init == "naive":
         box = original.means[removed_mask].detach().numpy()
         new = naive_init(views, box.min(0), box.max(0), max(1, len(depth_guided_init(views, sh_degree=0))), seed=cfg.refine.seed, sh_degree=edited.sh_degree)

@@ -138,6 +138,27 @@ def footprint(model: Gaussians, removed: torch.Tensor, camera: Camera, share: fl
     return (o.features[..., 0] >= share).numpy()
 
 
+def share_in_front(model: Gaussians, camera: Camera, planes: Sequence[tuple[np.ndarray, float]], margin: float = 0.03, backend: str = "auto") -> np.ndarray:
+    """(H, W) share of each pixel's colour given by the Gaussians in front of the ``planes``
+    ((unit normal, offset) pairs, n.x = offset): those nearer to the camera than (1 - ``margin``) x
+    the distance at which the ray through their centre meets each plane (or whose ray meets it
+    nowhere ahead). Alpha compositing (Eq. 1) makes an opaque surface in front give nearly all of
+    the colour and a faint haze little, where the alpha-normalised depth of Eq. 5 puts the haze's
+    depth in front either way."""
+    p = model.means.detach().cpu().double().numpy()
+    c = camera.center.detach().cpu().double().numpy()
+    front = project(camera, p)[2] > 1e-6
+    for normal, offset in planes:
+        n = np.asarray(normal, dtype=np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (offset - n @ c) / ((p - c) @ n)  # the plane meets the ray at c + t (p - c)
+        front &= ~np.isfinite(t) | (t <= 0) | (t > 1.0 / (1.0 - margin))
+    g = model.map(lambda x: x)
+    g.features = torch.from_numpy(front).to(model.means.dtype)[:, None]
+    with torch.no_grad():
+        return render(g, camera, with_features=True, backend=backend).features[..., 0].numpy()
+
+
 def clean_mask(mask: np.ndarray, min_component: int, dilate: int) -> np.ndarray:
     """Drop connected components smaller than ``min_component`` pixels, then dilate by ``dilate``."""
     m = mask.astype(np.uint8)
