@@ -129,13 +129,17 @@ class TrainingVisibility:
         return seen
 
 
+def rendered_share(model: Gaussians, flags: torch.Tensor | np.ndarray, camera: Camera, backend: str = "auto") -> np.ndarray:
+    """(H, W) share of each pixel's colour that the Gaussians flagged in ``flags`` (N,) give (Eq. 1)."""
+    g = model.map(lambda t: t)
+    g.features = torch.as_tensor(flags).to(device=model.means.device, dtype=model.means.dtype)[:, None]
+    with torch.no_grad():
+        return render(g, camera, with_features=True, backend=backend).features[..., 0].cpu().numpy()
+
+
 def footprint(model: Gaussians, removed: torch.Tensor, camera: Camera, share: float = 0.5, backend: str = "auto") -> np.ndarray:
     """Pixels at least ``share`` of whose colour the Gaussians flagged in ``removed`` gave (full model)."""
-    g = model.map(lambda t: t)
-    g.features = removed.to(model.means.dtype)[:, None]
-    with torch.no_grad():
-        o = render(g, camera, with_features=True, backend=backend)
-    return (o.features[..., 0] >= share).numpy()
+    return rendered_share(model, removed, camera, backend) >= share
 
 
 def share_in_front(model: Gaussians, camera: Camera, planes: Sequence[tuple[np.ndarray, float]], margin: float = 0.03, backend: str = "auto") -> np.ndarray:
@@ -153,10 +157,7 @@ def share_in_front(model: Gaussians, camera: Camera, planes: Sequence[tuple[np.n
         with np.errstate(divide="ignore", invalid="ignore"):
             t = (offset - n @ c) / ((p - c) @ n)  # the plane meets the ray at c + t (p - c)
         front &= ~np.isfinite(t) | (t <= 0) | (t > 1.0 / (1.0 - margin))
-    g = model.map(lambda x: x)
-    g.features = torch.from_numpy(front).to(model.means.dtype)[:, None]
-    with torch.no_grad():
-        return render(g, camera, with_features=True, backend=backend).features[..., 0].numpy()
+    return rendered_share(model, front, camera, backend)
 
 
 def clean_mask(mask: np.ndarray, min_component: int, dilate: int) -> np.ndarray:
