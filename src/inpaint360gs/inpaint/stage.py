@@ -28,6 +28,7 @@ from tqdm import tqdm
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.support import STANDING
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.inpaint.conditioned import inpaint_views, reprojection_error
 from inpaint360gs.inpaint.init import depth_guided_init, naive_init
@@ -138,8 +139,6 @@ def fill_rows(points: np.ndarray, footprints: list, cfg: "InpaintConfig") -> np.
     over the support) in the columns grown by ``footprint_margin``. After the removal that space
     is empty air over the support; a fill point there comes from a depth the 2D inpainter made up
     (a plane through a ring of support and backdrop) and shows as haze from other views."""
-    from inpaint360gs.core.support import STANDING
-
     return in_columns(points, footprints, cfg.reveal_margin) & ~in_columns(points, footprints, cfg.footprint_margin, STANDING, 2.0)
 
 
@@ -166,8 +165,6 @@ def footprint_rows(model: Gaussians, footprints: list, margin: float) -> torch.T
     what the 3D inpainting may adjust besides the new Gaussians (the seams of paper Sec. 3.5). The
     rest of the scene, which the photos explain, stays as it was. That includes what stands near
     the hole, such as another object or a backdrop: adjusted to the fill's targets, it hazes."""
-    from inpaint360gs.core.support import STANDING
-
     return torch.from_numpy(in_columns(model.means.detach().cpu().double().numpy(), footprints, margin, -STANDING, STANDING))
 
 
