@@ -1,10 +1,10 @@
 """Real-photo effects of the synthetic generator, each against its closed form, and that the classic
-scenes, which have them all off, are byte for byte what they were (their committed tables depend on them)."""
+scenes, which have them all off, are what they were, within the rounding that differs between CPUs (their tables depend on them)."""
 
 from __future__ import annotations
 
-import hashlib
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -38,26 +38,63 @@ def _floor_occlusion(world: World, xy: np.ndarray) -> np.ndarray:
 # the classic scenes are untouched
 
 
-# sha256 over images/, unseen_mask/, gt/instance/, gt/depth/ (name + bytes, sorted) and
-# gt/cameras.json of `generate_scene(name, reduced=True, width=64, height=48, seed=0)`, recorded
-# before the realistic family existed
-CLASSIC_HASHES = {
-    "cone": "b10f4067019fce57b6a0b4f4549ca58d73e823345faada32d0714f63dccb087e",
-    "toys": "3f5390dac8d6057829bac4a711216004d22ba7c02efc47ed61eb5b029d9451bd",
-}
+# The classic scenes as the generator made them before the realistic family existed, kept as a
+# small reference (tests/synth/data/classic_reference.npz, written by `python -m
+# tests.synth.test_synth_effects`): each image and depth map averaged over 4x4 blocks, every
+# instance and unseen mask whole, the cameras. Compared within tolerances, not by bytes: the ray caster's float
+# rounding differs between CPUs (vector instruction sets), which moves a few pixels by a grey level
+# and a few edge pixels between objects, while any change of the scenes themselves (an effect left
+# on, a moved object, another colour) moves far more.
+CLASSIC_REFERENCE = Path(__file__).parent / "data" / "classic_reference.npz"
+CLASSIC_NAMES = ("cone", "toys")
+
+
+def _block_mean(a: np.ndarray, k: int = 4) -> np.ndarray:
+    h, w = a.shape[0] // k * k, a.shape[1] // k * k
+    a = a[:h, :w].astype(np.float64)
+    return a.reshape(h // k, k, w // k, k, *a.shape[2:]).mean(axis=(1, 3))
+
+
+def classic_summary(d: Path) -> dict[str, np.ndarray]:
+    """What the reference keeps of a generated classic scene (see above)."""
+    out: dict[str, np.ndarray] = {}
+    for p in sorted((d / "images").iterdir()):
+        out[f"images/{p.name}"] = _block_mean(cv2.imread(str(p), cv2.IMREAD_UNCHANGED)).astype(np.float32)
+    for p in sorted((d / "gt" / "depth").iterdir()):
+        out[f"depth/{p.name}"] = _block_mean(np.load(p)).astype(np.float32)
+    for sub in ("unseen_mask", "gt/instance"):
+        for p in sorted((d / sub).iterdir()):
+            out[f"{sub}/{p.name}"] = cv2.imread(str(p), cv2.IMREAD_UNCHANGED)
+    cams = json.loads((d / "gt" / "cameras.json").read_text())
+    out["cameras"] = np.array([cams["fx"], cams["fy"], cams["cx"], cams["cy"]], np.float64)
+    out["camera_poses"] = np.array([[*sum(c["R"], []), *c["t"]] for c in cams["images"]])
+    return out
+
+
+def _generate_classic(name: str, where: Path) -> Path:
+    return generate_scene(name, where, reduced=True, width=64, height=48, seed=0)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", sorted(CLASSIC_HASHES))
-def test_classic_scene_files_are_byte_identical_to_before_the_family(tmp_path, name):
-    d = generate_scene(name, tmp_path, reduced=True, width=64, height=48, seed=0)
-    h = hashlib.sha256()
-    for sub in ("images", "unseen_mask", "gt/instance", "gt/depth"):
-        for p in sorted((d / sub).iterdir()):
-            h.update(p.name.encode())
-            h.update(p.read_bytes())
-    h.update((d / "gt" / "cameras.json").read_bytes())
-    assert h.hexdigest() == CLASSIC_HASHES[name]
+@pytest.mark.parametrize("name", CLASSIC_NAMES)
+def test_classic_scene_files_are_what_they_were_before_the_family(tmp_path, name):
+    d = _generate_classic(name, tmp_path)
+    ref = np.load(CLASSIC_REFERENCE)
+    got = classic_summary(d)
+    keys = sorted(k for k in ref.files if k.startswith(f"{name}:"))
+    assert sorted(f"{name}:{k}" for k in got) == keys  # the same files
+    for key in keys:
+        a, b = got[key.split(":", 1)[1]], ref[key]
+        assert a.shape == b.shape, key
+        kind = key.split(":", 1)[1].split("/")[0]
+        if kind in ("images", "depth"):  # 4x4 block means: 99 % of blocks agree; an edge pixel may flip
+            off = np.abs(a - b) > (0.5 if kind == "images" else 1e-4 * np.abs(b).max())
+            assert off.mean() <= 0.01, key
+        elif kind in ("cameras", "camera_poses"):
+            np.testing.assert_allclose(a, b, rtol=1e-6, atol=1e-9, err_msg=key)
+        else:  # masks: the same labels, a few edge pixels may change hands
+            assert set(np.unique(a)) == set(np.unique(b)), key
+            assert (a != b).mean() <= 0.01, key
     assert not (d / "gt" / "photometric.json").exists() and not (d / "gt" / "clean").exists()
     assert set(json.loads((d / "scene.json").read_text())["provenance"]) == {"generator", "version", "seed", "width", "height", "reduced"}
 
@@ -200,3 +237,14 @@ def test_weave_hem_and_stripes():
     calm = inside & (edge > 0.05) & (np.abs(p[:, 1] - 0.05) > 0.05)  # away from hem and stripe
     far = albedo(m, p[calm], np.full(calm.sum(), 0.05), 0)
     assert far.std(axis=0).max() < 0.1 * a[calm].std(axis=0).max()
+
+
+if __name__ == "__main__":  # rewrite the classic scenes' reference (only when they are meant to change)
+    import tempfile
+
+    arrays = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in CLASSIC_NAMES:
+            arrays.update({f"{n}:{k}": v for k, v in classic_summary(_generate_classic(n, Path(tmp))).items()})
+    np.savez_compressed(CLASSIC_REFERENCE, **arrays)
+    print(f"wrote {CLASSIC_REFERENCE} ({len(arrays)} arrays)")
