@@ -8,6 +8,8 @@ Layout (docs/architecture.md, "Scene format"; names in ``inpaint360gs.core.layou
     <name>/gt/cameras.json                      intrinsics and R, t (world->camera) of every image
     <name>/gt/instance/<stem>.png               uint8 object id at each pixel centre (0 = background)
     <name>/gt/depth/<stem>.npy                  float32 z-depth of each pixel-centre ray
+    <name>/gt/depth_free/<stem>.npy             the same without the removal targets, for the photos with them
+                                                (what a removal should reveal; the ground-truth removal scores)
     <name>/gt/objects.json                      id, label, shape, removal target, bounding sphere
     <name>/scene.json                           objects, removal targets, up, provenance
 
@@ -37,7 +39,7 @@ from PIL import Image
 from tqdm import tqdm
 
 from dataset_tools.synth.photo import develop
-from dataset_tools.synth.render import render
+from dataset_tools.synth.render import centre_depth, render
 from dataset_tools.synth.scene import SynthScene, build_scene
 from dataset_tools.synth.sparse import sample_points, write_sparse_model
 from dataset_tools.synth.visibility import unseen_mask
@@ -140,6 +142,9 @@ def write_scene(scene: SynthScene, folder: Path, progress: bool = False) -> None
         _png(folder / "images" / v.name, images[v.name])
         _png(folder / "gt" / "instance" / f"{v.stem}.png", r.instance)
         np.save(folder / "gt" / "depth" / f"{v.stem}.npy", r.depth.astype(np.float32))
+        if not v.object_free:
+            (folder / "gt" / "depth_free").mkdir(exist_ok=True)
+            np.save(folder / "gt" / "depth_free" / f"{v.stem}.npy", centre_depth(scene.world(True), v).astype(np.float32))
         bar.update(1)
     for v in scene.test_views:
         mask = unseen_mask(scene, v, renders[v.name].points)

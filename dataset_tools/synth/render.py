@@ -58,3 +58,17 @@ def render(world: World, view: View, supersample: int = SUPERSAMPLE) -> Renderin
         dc = d.reshape(*shape, 3)[:, :, mid, mid]
         pts[i0:i1] = origin[0] + t[..., None] * dc
     return Rendering(rgb, depth, inst, pts)
+
+
+def centre_depth(world: World, view: View) -> np.ndarray:
+    """(H, W) camera z of the surface hit by the ray through each pixel centre (no shading): the same
+    depth :func:`render` returns, at a fraction of its cost."""
+    W, H = view.camera.width, view.camera.height
+    jj, ii = np.meshgrid(np.arange(W, dtype=np.float64) + 0.5, np.arange(H, dtype=np.float64) + 0.5)
+    t = np.empty(H * W)
+    d = view.rays(jj.ravel(), ii.ravel())
+    for s in range(0, H * W, CHUNK_RAYS):
+        t[s : s + CHUNK_RAYS], idx = world.cast(view.center[None, :], d[s : s + CHUNK_RAYS])
+        if np.any(idx < 0):
+            raise RuntimeError(f"{view.name}: some rays escape the scene (it must be enclosed)")
+    return t.reshape(H, W)  # ray directions have camera z = 1
