@@ -11,12 +11,9 @@ ablation a) (2D tracking instead of Key Object Management) on the oracle masks, 
   the object's most frequent one (and not background). Target >= 95%.
 * id map IoU: the distilled field's rendered id map on the HELD-OUT views vs ``gt/instance``, each
   object matched to its most frequent associated id; mean over objects. Target >= 0.85.
-* removal (training views): residual = target-footprint pixels where the edited scene still shows a
-  surface at the object's depth (within 3% of the ground-truth depth with the object, and more than
-  3% in front of the object-free surface the generator ray-casts), as a share of the footprint
-  (target <= 1%); collateral = pixels outside the footprint
-  dilated by 3 px whose colour changes by more than 0.1 (target <= 0.5%); AMCR vs the ground-truth
-  footprint share (target <= 1.25x).
+* removal (training views): residual, collateral and AMCR against the true footprint share, the
+  library's ground-truth removal scores (docs/architecture.md, "Ground-truth removal scores"; the
+  limits there: residual and collateral <= 1 %, AMCR <= 1.5x the true footprint share).
 
 Ground truth is read here only, for scoring; the method stages never see it (except the oracle
 segmenter, whose rows are labelled).
@@ -33,9 +30,7 @@ import sys
 import time
 from pathlib import Path
 
-import cv2
 import numpy as np
-import torch
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -88,42 +83,19 @@ def idmap_iou(field, scene, scene_dir: Path, match: dict) -> dict:
     return {o: inter[o] / union[o] for o in match if union[o] > 0}
 
 
-@torch.no_grad()
-def removal_scores(field, removed_dir: Path, scene, scene_dir: Path, targets: list[int]) -> dict:
-    from dataset_tools.synth.api import render_view
-    from inpaint360gs.io.ply import read_ply
-    from inpaint360gs.render.api import render
-    from inpaint360gs.views.unseen import normalised_depth
+def removal_scores(removed_dir: Path, scene) -> dict:
+    """The library's ground-truth removal scores (:func:`inpaint360gs.evaluate.removal.removal_scores`,
+    the workflow's `score_removal` rule; correct for scenes posed by structure from motion too)."""
+    from inpaint360gs.evaluate.removal import removal_scores as scores
 
-    edited = read_ply(removed_dir / "point_cloud.ply")
+    s = scores(removed_dir, scene)["scores"]
     info = json.loads((removed_dir / "removal.json").read_text())
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
-    fp_px = res_px = col_px = out_px = 0
-    shares = []
-    for v in scene.train_views:
-        fp = np.isin(gt_instance(scene_dir, v), targets)
-        shares.append(100.0 * fp.mean())
-        free = render_view(scene_dir, v.camera, with_objects=False, supersample=1).depth
-        with_obj = np.load(scene_dir / "gt" / "depth" / f"{v.stem}.npy")
-        o_edit = render(edited, v.camera)
-        o_orig = render(field.gaussians, v.camera)
-        d_edit = normalised_depth(o_edit).numpy()
-        surface = o_edit.alpha.numpy() >= 0.5
-        # still a surface at the object's depth (and clearly in front of what removal should reveal)
-        residual = fp & surface & (np.abs(d_edit - with_obj) < 0.03 * with_obj) & (d_edit < 0.97 * free)
-        outside = ~cv2.dilate(fp.astype(np.uint8), kernel).astype(bool)
-        change = (o_edit.color - o_orig.color).abs().max(dim=-1).values.numpy() > 0.1
-        fp_px += int(fp.sum())
-        res_px += int(residual.sum())
-        col_px += int((change & outside).sum())
-        out_px += int(outside.sum())
-    gt_share = float(np.mean(shares))
     return {
-        "residual_percent": 100.0 * res_px / max(fp_px, 1),
-        "collateral_percent": 100.0 * col_px / max(out_px, 1),
-        "amcr_percent": info["amcr_percent"],
-        "gt_footprint_percent": gt_share,
-        "amcr_ratio": info["amcr_percent"] / gt_share if gt_share > 0 else float("nan"),
+        "residual_percent": s["residual"],
+        "collateral_percent": s["collateral"],
+        "amcr_percent": s["amcr"],
+        "gt_footprint_percent": s["gt_footprint_share"],
+        "amcr_ratio": s["amcr_ratio"],
         "removal_seconds": info.get("seconds"),
     }
 
@@ -205,7 +177,7 @@ def main() -> int:
             cons, match = association_scores(r["scene"], scene_dir, lay.associate, objects)
             field = IdentityField.load(lay.distill)
             ious = idmap_iou(field, r["scene"], scene_dir, match)
-            rem = removal_scores(field, lay.removed, r["scene"], scene_dir, targets)
+            rem = removal_scores(Path(lay.removed), r["scene"])
             row = {
                 "scene": name, "segmenter": segmenter, "association": association,
                 "consistency_min": min(cons.values()) if cons else None, "consistency_targets": float(np.mean([cons[t] for t in targets if t in cons])),

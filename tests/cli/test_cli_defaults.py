@@ -14,6 +14,7 @@ import pytest
 from inpaint360gs.associate.config import AssociationConfig
 from inpaint360gs.cli import STAGES
 from inpaint360gs.distill.config import DistillConfig
+from inpaint360gs.evaluate.removal import score_removal_stage, silhouette_share
 from inpaint360gs.evaluate.stage import evaluate_stage
 from inpaint360gs.gs.config import DensifyConfig, TrainConfig
 from inpaint360gs.inpaint.refine import RefineConfig
@@ -23,7 +24,6 @@ from inpaint360gs.pipeline.run import STAGES as RUN_STAGES
 from inpaint360gs.pipeline.run import RunConfig
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.stage import remove_stage
-from inpaint360gs.report.amcr import removal_amcr
 from inpaint360gs.report.geometry import depth_off
 from inpaint360gs.render.api import render
 from inpaint360gs.segment.cluster3d import ClusterConfig
@@ -41,7 +41,8 @@ SOURCES = {
     "remove": [RemovalConfig, remove_stage],
     "inpaint": [InpaintConfig],
     "run": [RunConfig, InpaintConfig],
-    "evaluate": [evaluate_stage, removal_amcr, depth_off],
+    "evaluate": [evaluate_stage, silhouette_share, depth_off],
+    "score-removal": [score_removal_stage],
     "distill": [DistillConfig],
     "capture-scores": [],
     "table": [],

@@ -107,27 +107,30 @@ def test_values_match_the_metric_functions_and_nulls_have_reasons(scene):
     # the unseen share over the 3 views with a mask file: 600 of 3072 pixels twice, 0 once; no removal given: no AMCR
     assert res["scene_metrics"]["unseen_share"] == pytest.approx(100 * (600 / 3072 * 2) / 3)
     assert res["scene_metrics"]["amcr"] is None and "--removal" in res["null_reasons"]["scene_metrics"]["amcr"]
+    assert res["scene_metrics"]["silhouette_test"] is None and "--removal" in res["null_reasons"]["scene_metrics"]["silhouette_test"]
 
     sm = res["scene_metrics"]
     assert sm["fid"] is None and "Inception" in res["null_reasons"]["scene_metrics"]["fid"]
     assert math.isfinite(sm["fd_vgg16"]) and sm["fd_vgg16"] > 0 and math.isfinite(sm["kid_vgg16"])
     assert set(res["conventions"]) == {"full", "masked", "roi"}
-    assert {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr"} <= set(res["definitions"])
+    assert {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "silhouette_test"} <= set(res["definitions"])
     assert all(len(w["sha256"]) == 64 for k, w in res["weights"].items() if k.startswith("lpips"))
     assert res["weights"]["inception"] is None
 
 
-def test_amcr_of_given_removal_masks(scene):
-    """AMCR (supp. Eq. 1) of hand-made removal masks: the mean over every test view of the percentage
-    of its pixels in the mask, apart from the unseen share; a missing or misshapen mask is refused."""
+def test_silhouette_of_given_removal_masks_and_the_given_amcr(scene):
+    """The removed silhouette at the test cameras from hand-made removal masks: the mean over every
+    test view of the percentage of its pixels in the mask, apart from the unseen share and from AMCR
+    (over the training views, given as it is); a missing or misshapen mask is refused."""
     root, renders = scene
     masks = {f"test_{i:03d}.png": np.zeros((H, W), bool) for i in range(4)}
     masks["test_000.png"][:, :16] = True  # a quarter of the view
     masks["test_001.png"][:] = True
     masks["test_003.png"][0, :3] = True
-    res = evaluate_stage(renders, root, nets=("alex",), removal_masks=masks)
-    assert res["scene_metrics"]["amcr"] == pytest.approx((25.0 + 100.0 + 0.0 + 100 * 3 / (H * W)) / 4)
-    assert res["num_views_mean"]["amcr"] == 4 and "amcr" not in res["null_reasons"]["scene_metrics"]
+    res = evaluate_stage(renders, root, nets=("alex",), removal_masks=masks, training_amcr=7.5)
+    assert res["scene_metrics"]["silhouette_test"] == pytest.approx((25.0 + 100.0 + 0.0 + 100 * 3 / (H * W)) / 4)
+    assert res["num_views_mean"]["silhouette_test"] == 4 and "silhouette_test" not in res["null_reasons"]["scene_metrics"]
+    assert res["scene_metrics"]["amcr"] == 7.5 and "amcr" not in res["null_reasons"]["scene_metrics"]
     assert res["scene_metrics"]["unseen_share"] == pytest.approx(100 * (600 / 3072 * 2) / 3)
     with pytest.raises(InputError, match="no removal mask for test view test_002.png"):
         evaluate_stage(renders, root, nets=("alex",), removal_masks={k: v for k, v in masks.items() if k != "test_002.png"})
@@ -197,7 +200,8 @@ def test_scene_without_test_views_reports_no_ground_truth(tmp_path, capsys):
     assert res["num_views"] == 0 and res["views"] == [] and res["per_view"] == {}
     assert list(res["mean"]) == metric_names(("vgg", "alex")) and set(res["mean"].values()) == {None}
     assert set(res["null_reasons"]["mean"].values()) == {NO_GROUND_TRUTH}
-    assert set(res["scene_metrics"]) == {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off"} and set(res["scene_metrics"].values()) == {None}
+    assert set(res["scene_metrics"]) == {"fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "silhouette_test", "roi_depth_off"}
+    assert set(res["scene_metrics"].values()) == {None}
     assert set(res["null_reasons"]["scene_metrics"].values()) == {NO_GROUND_TRUTH}
 
     out = tmp_path / "m.json"

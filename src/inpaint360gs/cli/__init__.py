@@ -23,6 +23,7 @@ STAGES: dict[str, tuple[str, str]] = {
     "run": ("inpaint360gs.cli.run", "the whole method on one scene folder (train -> segment -> associate -> distill -> remove -> inpaint)"),
     "evaluate": ("inpaint360gs.cli.evaluate", "score renders of a scene's test_ views: full, masked and ROI metrics, LPIPS, FID or its substitutes"),
     "distill": ("inpaint360gs.cli.distill", "distill associated object masks into identity features of a trained model (Sec. 3.3)"),
+    "score-removal": ("inpaint360gs.cli.score_removal", "score a removal: AMCR over the training views and, on a synthetic scene, residual and collateral against gt/"),
     "capture-scores": ("inpaint360gs.cli.capture_scores", "score a removal on a capture without ground truth: outside the hole, the footprint, the fill's texture"),
     "table": ("inpaint360gs.cli.table", "tables: 3DGS reconstruction, one run's record, the paper's Tabs. 1-3 from records (CSV/Markdown/LaTeX)"),
 }

@@ -3,11 +3,13 @@
 - ``table reconstruction METRICS.json ... --csv OUT.csv --md OUT.md``: per-scene 3DGS reconstruction
   table with an average row;
 - ``table record OUT.json --label scene=S --label method=M --label segmenter=G [--label kind=K]
-  [--eval EVAL.json] [--stage NAME=BENCH.tsv ...] [--model PLY ...] [--skip-reason TEXT]``: one run's
-  record (:mod:`inpaint360gs.report.records`);
+  [--eval EVAL.json] [--removal-scores SCORES.json] [--stage NAME=BENCH.tsv ...] [--model PLY ...]
+  [--skip-reason TEXT]``: one run's record (:mod:`inpaint360gs.report.records`);
 - ``table paper RECORD.json ... --out-dir DIR [--config CONFIG.yaml] [--seeds N ...] [--confidence C]
-  [--resamples N] [--bootstrap-seed S]``: the paper's tables from records, with seed spreads and
-  paired bootstrap intervals (:mod:`inpaint360gs.report.paper`, :mod:`inpaint360gs.report.stats`).
+  [--resamples N] [--bootstrap-seed S] [--keep-failed DIR]``: the paper's tables from records, with seed
+  spreads and scene-level paired bootstrap intervals (:mod:`inpaint360gs.report.paper`,
+  :mod:`inpaint360gs.report.stats`); ``--keep-failed`` copies the renders and removal masks of the
+  runs above a removal limit into DIR (:mod:`inpaint360gs.report.failed`).
 """
 
 from __future__ import annotations
@@ -60,6 +62,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                    help="scene=, method=, segmenter= (required), kind=method|baseline|ablation (default method), seed= (the run's "
                         "seed, an integer), name= (display name), ablation=a..e (row of paper Tab. 3); repeat the option")
     p.add_argument("--eval", default=None, metavar="EVAL.json", help="metrics JSON written by inpaint360gs evaluate")
+    p.add_argument("--removal-scores", default=None, metavar="SCORES.json",
+                   help="the run's removal scores written by inpaint360gs score-removal (residual, collateral, true footprint share)")
     p.add_argument("--stage", dest="stage_benchmarks", action="append", default=[], metavar="NAME=BENCH.tsv",
                    help="a stage's Snakemake benchmark file (wall seconds, max RSS); repeat per stage")
     p.add_argument("--model", nargs="+", action="extend", default=[], metavar="PLY", help="model files whose total size is the storage")
@@ -74,6 +78,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--confidence", type=number(float, lo=0.0, hi=1.0, lo_open=True, hi_open=True), default=0.95, help="level of the paired bootstrap intervals (default 0.95)")
     p.add_argument("--resamples", type=positive_int, default=10_000, help="bootstrap resamples (default 10000)")
     p.add_argument("--bootstrap-seed", type=nonneg_int, default=0, help="seed of the bootstrap's generator (default 0: the same records give the same tables)")
+    p.add_argument("--keep-failed", type=output_dir, default=None, metavar="DIR",
+                   help="copy the test renders and removal masks of every run above a removal limit into DIR (replaced as a whole)")
 
 
 def _run_reconstruction(args: argparse.Namespace) -> int:
@@ -95,9 +101,11 @@ def _run_record(args: argparse.Namespace) -> int:
 
     labels = parse_labels(args.label)
     stages = [parse_stage(s) for s in args.stage_benchmarks]  # args.stage is the CLI stage (table)
-    inputs = {"--eval": args.eval, **{f"--stage {n}": p for n, p in stages}, **{f"--model[{i}]": p for i, p in enumerate(args.model, 1)}}
+    inputs = {"--eval": args.eval, "--removal-scores": args.removal_scores, **{f"--stage {n}": p for n, p in stages},
+              **{f"--model[{i}]": p for i, p in enumerate(args.model, 1)}}
     check_apart({"OUT": args.out}, inputs, replaced=False)
-    rec = make_record(labels, evaluation=args.eval, stages=stages, models=args.model, skip_reason=args.skip_reason)
+    rec = make_record(labels, evaluation=args.eval, removal_scores=args.removal_scores, stages=stages, models=args.model,
+                      skip_reason=args.skip_reason)
     write_text(args.out, json.dumps(rec, indent=1, allow_nan=False) + "\n")
     m = rec["metrics"]
     what = f"PSNR {m['psnr']:.2f}" if m["psnr"] is not None else f"no metrics ({rec['skip_reason'] or 'see null_reasons'})"
@@ -111,9 +119,12 @@ def _run_paper(args: argparse.Namespace) -> int:
     from inpaint360gs.report.paper import Bootstrap, output_names, paper_tables
 
     outs = {name: Path(args.out_dir) / name for name in output_names()}
-    check_apart(outs, {**{f"RECORD[{i}]": p for i, p in enumerate(args.records, 1)}, "--config": args.config}, replaced=False)
+    records = {f"RECORD[{i}]": p for i, p in enumerate(args.records, 1)}
+    check_apart(outs, {**records, "--config": args.config}, replaced=False)
+    if args.keep_failed is not None:
+        check_apart({"--keep-failed": args.keep_failed}, {**records, "--config": args.config}, replaced=True)
     boot = Bootstrap(confidence=args.confidence, resamples=args.resamples, seed=args.bootstrap_seed)
-    tables = paper_tables(args.records, args.out_dir, config=args.config, seeds=args.seeds, boot=boot)
+    tables = paper_tables(args.records, args.out_dir, config=args.config, seeds=args.seeds, boot=boot, keep_failed=args.keep_failed)
     for name, t in tables.items():
         print(f"{name}: {len(t.rows)} row(s)")
     print(f"-> {args.out_dir}/{{{','.join(tables)}}}.{{csv,md,tex}}, provenance.json")

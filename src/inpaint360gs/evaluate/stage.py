@@ -17,9 +17,9 @@ It returns a JSON-ready dict (no NaN or inf anywhere; ``json.dumps(..., allow_na
 - ``scene_metrics``: ``fid`` (pytorch-fid protocol, only with the Inception weights file),
   ``fd_vgg16`` and ``kid_vgg16`` (substitutes on VGG16 features, always computed), ``unseen_share``
   (the coverage of the ground-truth unseen masks: mean over views with a mask file of the percentage
-  of pixels in the mask), ``amcr`` (paper supp. Eq. 1 on the run's own removal masks at the test
-  cameras, given as ``removal_masks``) and ``roi_depth_off`` (the fill's geometry against the true
-  surface, given as ``depth_off``; :mod:`inpaint360gs.report.geometry`), each null with the reason
+  of pixels in the mask), ``amcr`` (paper supp. Eq. 1 over the training views, given as
+  ``training_amcr``), ``silhouette_test`` (given as ``removal_masks``) and ``roi_depth_off`` (the
+  fill's geometry against the true surface, given as ``depth_off``), each null with the reason
   without its input; definitions in ``definitions``;
 - ``weights``: path and sha256 of every weights file used.
 
@@ -76,14 +76,16 @@ DEFINITIONS = {
     ),
     "kid_vgg16": "substitute for KID: unbiased MMD^2, kernel (x.y/512 + 1)^3, on the fd_vgg16 features of all views at once",
     "unseen_share": "coverage of the ground-truth unseen masks: mean over views with an unseen mask file of 100 * mask pixels / image pixels",
-    "amcr": ("AMCR (paper supp. Eq. 1) on the run's own removal masks: mean over the test views of 100 * pixels the removal "
+    "amcr": ("AMCR (paper supp. Eq. 1) on the run's own removal masks: mean over the training views of 100 * pixels the removal "
              "leaves to fill / image pixels"),
+    "silhouette_test": ("the removed silhouette at the test cameras: mean over the test views of 100 * pixels the removal's mask rule "
+                        "marks there / image pixels (the removed Gaussians give at least mask_share of the pixel's colour)"),
 }
 DEFINITIONS["roi_depth_off"] = ("percentage of the test views' unseen-mask pixels that the run's model leaves empty or shows more than "
                                  "5% of the true depth off the object-free surface (gt/depth)")
-NO_REMOVAL_REASON = "no removal masks given (inpaint360gs evaluate --removal REMOVED_DIR computes them at the test cameras)"
+NO_REMOVAL_REASON = "no removal given (inpaint360gs evaluate --removal REMOVED_DIR)"
 NO_MODEL_REASON = "no model given (inpaint360gs evaluate --model PLY renders its depth at the test cameras)"
-SCENE_KEYS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off")
+SCENE_KEYS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "silhouette_test", "roi_depth_off")
 PIXELS_PER_BATCH = 1 << 20  # images per network call: a bound on activation memory (~1M pixels)
 
 
@@ -304,8 +306,8 @@ def _lpips_metrics(
     return torch.cat(vgg_r), torch.cat(vgg_g)
 
 
-def _removal_amcr(removal_masks: Mapping[str, np.ndarray] | None, views: list[View]) -> float | None:
-    """AMCR of the removal masks over the test ``views`` (each view needs one of its size)."""
+def _silhouette_share(removal_masks: Mapping[str, np.ndarray] | None, views: list[View]) -> float | None:
+    """Mean coverage (percent) of the removal's masks at the test ``views`` (each view needs one of its size)."""
     if removal_masks is None:
         return None
     ordered = []
@@ -343,7 +345,7 @@ def _no_ground_truth(scene: Scene, renders_dir: Path, nets: tuple) -> dict:
         "conventions": dict(CONVENTIONS),
         "definitions": dict(DEFINITIONS),
         "mean": dict.fromkeys(names),
-        "num_views_mean": dict.fromkeys((*names, "unseen_share", "amcr", "roi_depth_off"), 0),
+        "num_views_mean": dict.fromkeys((*names, "unseen_share", "amcr", "silhouette_test", "roi_depth_off"), 0),
         "per_view": {},
         "scene_metrics": dict.fromkeys(scene_keys),
         "null_reasons": {"per_view": {}, "mean": dict.fromkeys(names, NO_GROUND_TRUTH),
@@ -367,6 +369,7 @@ def evaluate_stage(
     device: str = "cpu",
     resize: int = 1,
     removal_masks: Mapping[str, np.ndarray] | None = None,
+    training_amcr: float | None = None,
     depth_off: tuple[float | None, str | None] | None = None,
 ) -> dict:
     """Metrics of the renders in ``renders_dir`` against the test views of ``scene_dir``.
@@ -378,8 +381,9 @@ def evaluate_stage(
     records their provenance (``render``'s ``render.json``, an inpainting's ``inpaint.json``) must be
     of this scene at this ``resize`` (docs/architecture.md, "Provenance chain"). A test view without
     an unseen mask file, while others have one, is warned about (its masked and ROI values are null).
-    ``removal_masks``: per test view name, the pixels the run's removal leaves to fill (bool, the
-    view's size), for ``amcr``; ``depth_off``: (value, reason when null) of ``roi_depth_off``,
+    ``removal_masks``: per test view name, the pixels the run's removal marks there (bool, the
+    view's size), for ``silhouette_test``; ``training_amcr``: ``amcr`` of the run's removal over the
+    training views (:func:`inpaint360gs.evaluate.removal.training_amcr`); ``depth_off``: (value, reason when null) of ``roi_depth_off``,
     computed from the run's model. See the module docstring for the output layout and the handling of nulls.
     """
     nets = tuple(dict.fromkeys(nets))
@@ -413,7 +417,7 @@ def evaluate_stage(
         n = len(views) - len(lacking)
         warnings.warn(f"{scene_dir / layout.UNSEEN_MASK_DIR}: no unseen mask for {len(lacking)} of {len(views)} test view(s) (first: {lacking[0].name}); "
                       f"masked_* and roi_* means are over the {n} view(s) with one" if n else
-                      f"{scene_dir / layout.UNSEEN_MASK_DIR}: no unseen masks: masked_* and roi_* metrics and AMCR are null", stacklevel=2)
+                      f"{scene_dir / layout.UNSEEN_MASK_DIR}: no unseen masks: masked_* and roi_* metrics and the unseen share are null", stacklevel=2)
 
     table = _Table(names, metric_names(nets))
     _pixel_metrics(table, renders, gts, masks)
@@ -426,8 +430,12 @@ def evaluate_stage(
     counts["unseen_share"] = len(with_mask)
     if not with_mask:
         scene_reasons["unseen_share"] = "no test view has an unseen mask file"
-    scene_values["amcr"], counts["amcr"] = _removal_amcr(removal_masks, views), len(views) if removal_masks is not None else 0
+    scene_values["silhouette_test"] = _silhouette_share(removal_masks, views)
+    counts["silhouette_test"] = len(views) if removal_masks is not None else 0
     if removal_masks is None:
+        scene_reasons["silhouette_test"] = NO_REMOVAL_REASON
+    scene_values["amcr"], counts["amcr"] = training_amcr, len(scene.train_views) if training_amcr is not None else 0
+    if training_amcr is None:
         scene_reasons["amcr"] = NO_REMOVAL_REASON
     scene_values["roi_depth_off"], why = depth_off if depth_off is not None else (None, NO_MODEL_REASON)
     counts["roi_depth_off"] = len(with_mask) if scene_values["roi_depth_off"] is not None else 0

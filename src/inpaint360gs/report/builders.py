@@ -9,6 +9,7 @@ Nothing here writes a file.
 from __future__ import annotations
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.metrics.removal import LIMIT_TEXT, limits_exceeded
 from inpaint360gs.report import stats
 from inpaint360gs.report.records import METRICS
 from inpaint360gs.report.stats import HIGHER, LOWER, NONE, Run
@@ -34,13 +35,21 @@ METRIC_COLUMNS: dict[str, tuple[str, int, str]] = {
     "roi_depth_off": ("ROI depth off (%)", LOWER, ".2f"),  # the fill's geometry (report/geometry.py)
     # properties of the run's removal and of the scene: more or less of either is neither better nor worse
     "amcr": ("AMCR (%)", NONE, ".2f"),
+    "gt_footprint_share": ("true footprint (%)", NONE, ".2f"),
+    "residual": ("residual (%)", NONE, ".2f"),
+    "collateral": ("collateral (%)", NONE, ".2f"),
+    "silhouette_test": ("removed silhouette, test views (%)", NONE, ".2f"),
     "unseen_share": ("unseen share (%)", NONE, ".2f"),
 }
 assert set(METRIC_COLUMNS) == set(METRICS)
-# the compared columns of Tabs. 1 and 3 (then FID or its substitute), and the context columns
-AVERAGE_METRICS = ("psnr", "masked_psnr", "roi_psnr", "ssim", "masked_ssim", "roi_ssim", "lpips", "masked_lpips", "roi_lpips")
+# the compared columns of Tabs. 1 and 3 (then FID or its substitute), and the context columns. ROI PSNR
+# is not averaged: per view it is masked PSNR minus 10 log10(image pixels / mask pixels), a constant of
+# the scene's ground-truth mask, so every difference between rows is masked PSNR's (per_scene keeps it).
+AVERAGE_METRICS = ("psnr", "masked_psnr", "ssim", "masked_ssim", "roi_ssim", "lpips", "masked_lpips", "roi_lpips")
 GEOMETRY_METRICS = ("roi_depth_off",)  # compared after FID: the fill's surface against the true one
-CONTEXT_METRICS = ("amcr", "unseen_share")
+CONTEXT_METRICS = ("amcr", "gt_footprint_share", "residual", "collateral", "silhouette_test", "unseen_share")
+ROI_PSNR_NOTE = ("ROI PSNR is not averaged: per view it is masked PSNR minus 10 log10(image pixels / unseen-mask pixels), a constant "
+                 "of the scene's ground-truth mask, so it carries no information masked PSNR does not (per_scene lists it).")
 
 # paper Tab. 3: letter -> (name, method ids recognised without an ``ablation=`` label)
 ABLATIONS: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -161,7 +170,7 @@ def _values(recs: dict[Run, dict], runs: set[Run], metric: str) -> dict[Run, flo
 
 def _mean_row(key, recs: dict[Run, dict], runs: set[Run], metrics: tuple[str, ...], notes: list[str]) -> dict:
     """Mean and seed spread of each metric over ``runs``; a note for a metric null in some run."""
-    row: dict = {"row_type": "mean", "n_runs": len(runs)}
+    row: dict = {"row_type": "mean", "n_runs": len(runs), "n_scenes": len({r[0] for r in runs})}
     for m in metrics:
         vals = _values(recs, runs, m)
         nulls = sorted(r for r, v in vals.items() if v is None)
@@ -196,8 +205,9 @@ def _mark_first_places(rows: dict[tuple[str, str], dict], recs: dict[tuple[str, 
 
 
 def _difference_row(a: dict[Run, dict], b: dict[Run, dict], runs: set[Run], metrics: tuple[str, ...], boot: Bootstrap) -> dict:
-    """``a - b`` per compared metric over ``runs``: mean, interval, verdict (for ``a``)."""
-    row: dict = {"row_type": "difference", "n_runs": len(runs)}
+    """``a - b`` per compared metric over ``runs``: mean, interval, verdict (for ``a``; :data:`.stats.SEED_NOISE`
+    over fewer than :data:`.stats.MIN_SCENES` scenes)."""
+    row: dict = {"row_type": "difference", "n_runs": len(runs), "n_scenes": len({r[0] for r in runs})}
     for m in metrics:
         direction = METRIC_COLUMNS[m][1]
         iv = stats.paired_difference(_values(a, runs, m), _values(b, runs, m), **boot.kw()) if direction != NONE else None
@@ -209,13 +219,51 @@ def _difference_row(a: dict[Run, dict], b: dict[Run, dict], runs: set[Run], metr
     return row
 
 
+BOOTSTRAP_TEXT = ("intervals resample scenes: the paired differences are formed per run (one scene at one seed) and the scenes are "
+                  "drawn with replacement, each with all its seeds (they share its 3DGS model and move together)")
+
+
 def _stats_notes(runs: set[Run], boot: Bootstrap) -> list[str]:
     seeds = {r[1] for r in runs}
     spread = ("± = standard deviation over the seeds of the average over scenes (what changing only the seeds of every stage "
               "after 3DGS does to the number; 3DGS itself is trained once per scene)") if len(seeds) > 1 else "one seed per scene: no ± (no seed spread)"
-    return [f"{spread}. Δ = mean of the paired differences over the runs; in brackets its {boot.confidence:.0%} bootstrap interval "
-            f"({boot.resamples} resamples of the (scene, seed) pairs, RNG seed {boot.seed}; percentiles at the level expanded for "
-            f"small samples, report/stats.py; none below {stats.MIN_PAIRS} pairs); a run is one scene at one seed."]
+    return [f"{spread}. Δ = mean of the paired differences over the runs; in brackets its {boot.confidence:.0%} bootstrap interval. "
+            f"The {BOOTSTRAP_TEXT} ({boot.resamples} resamples, RNG seed {boot.seed}; percentiles at the level expanded for the number of "
+            f"scenes, report/stats.py). A verdict needs at least {stats.MIN_SCENES} scenes: with fewer, the interval resamples the runs, "
+            f"measures the seeds' noise on those scenes only, is marked \"{stats.SEED_NOISE}\" and makes no row bold or tied "
+            f"(none below {stats.MIN_PAIRS} runs)."]
+
+
+def removal_failures(records: list[dict]) -> list[dict]:
+    """Every run whose removal breaks a limit (:data:`inpaint360gs.metrics.removal.LIMITS`): scene,
+    seed, method, segmenter, the limit, the value, the maximum and the record, in scene, seed, limit, method order."""
+    out = []
+    for r in records:
+        for limit, value, most in limits_exceeded(r["metrics"]):
+            out.append({"scene": r["labels"]["scene"], "seed": r["labels"].get("seed", ""), "method": r["labels"]["method"],
+                        "segmenter": r["labels"]["segmenter"], "limit": limit, "value": value, "max": most, "record": r})
+    return sorted(out, key=lambda f: (f["scene"], _seed_order(f["seed"]), f["limit"], f["method"]))
+
+
+def _failure_notes(records: list[dict]) -> list[str]:
+    """Under Tab. 1: each run above a removal limit by name (the runs of one removal that share the value in one line)."""
+    lines: dict[tuple, list[str]] = {}
+    for f in removal_failures(records):
+        unit = "×" if f["limit"] == "amcr_ratio" else " %"
+        key = (f["scene"], f["seed"], f["segmenter"], f["limit"], f"{f['value']:.2f}{unit}", f"{f['max']:g}{unit}")
+        lines.setdefault(key, []).append(f["method"])
+    notes = [f"Removal limits (docs/architecture.md, \"Ground-truth removal scores\"): {'; '.join(LIMIT_TEXT.values())}; AMCR "
+             "(paper supp. Eq. 1) and the true footprint share are over the training views. "
+             + ("Runs above a limit stay in the averages and are listed here by name:" if lines else "No run is above a limit.")]
+    for (scene, seed, seg, limit, value, most), methods in lines.items():
+        notes.append(f"ABOVE LIMIT: {_run_text((scene, seed))} [{seg}]: {limit} {value} > {most}; method(s) {', '.join(methods)}.")
+    missing = [r for r in records if not r.get("skip_reason") and any(r["metrics"].get(k) is None for k in ("residual", "collateral", "amcr"))]
+    if missing:
+        first = missing[0]
+        why = next(first.get("null_reasons", {}).get(k) for k in ("residual", "collateral", "amcr") if first["metrics"].get(k) is None)
+        notes.append(f"{len(missing)} run(s) lack a removal score (AMCR, residual or collateral): the limits are not checked there "
+                     f"(first: {_run_text(_run(first))} {_who(_key(first))}: {why}).")
+    return notes
 
 
 def _segmenters(groups) -> list[str]:
@@ -236,7 +284,7 @@ def table1(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
     table = Table(
         "table1_average", "Average over runs of the methods and baselines (paper Tab. 1)",
         labels=[("method", "Method"), ("name", "Method"), ("segmenter", "Segmenter"), ("kind", "Kind"), ("row_type", "Row"), ("vs", "vs")],
-        columns=[Column("n_runs", "runs", fmt="d"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)],
+        columns=[Column("n_runs", "runs", fmt="d"), Column("n_scenes", "scenes", fmt="d"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)],
         notes=notes, csv_only=("method", "row_type", "vs"), compared=True,
     )
     rows = {}
@@ -255,10 +303,18 @@ def table1(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
             table.rows.append(row)
     if common:
         notes.insert(0, f"Averaged over {len(common)} run(s): {_describe(common)}.")
-        notes[1:1] = _stats_notes(common, boot)
-    notes.append("AMCR (paper supp. Eq. 1) = percentage of the test views' pixels that the run's own removal leaves to fill; unseen share = "
-                 "percentage under the ground-truth unseen masks (the same for every method). Both describe the task, neither is compared.")
+        notes[1:1] = [*_stats_notes(common, boot), ROI_PSNR_NOTE]
+    notes.append(CONTEXT_NOTE)
+    notes.extend(_failure_notes(records))
     return table
+
+
+CONTEXT_NOTE = ("Not compared, they describe the removal and the task: AMCR (paper supp. Eq. 1) = percentage of the training views' "
+                "pixels the run's own removal leaves to fill (mean over the views); true footprint = the removal targets' true share of "
+                "the same views; residual = share of the targets' true pixels that still show the object after the removal; collateral = "
+                "share of the pixels outside the grown true footprint that the removal changed; removed silhouette, test views = the "
+                "removal's mask rule at the test cameras (the object's whole silhouette there, most of which other views saw); unseen "
+                "share = percentage under the ground-truth unseen masks of the test views (the same for every method).")
 
 
 def _ablation_letter(rec: dict) -> str | None:
@@ -279,6 +335,9 @@ def _ablation_name(rec: dict) -> str:
 
 def _verdicts(row: dict, metrics: tuple[str, ...]) -> str:
     """What the Δ row of an ablation says, in words: on which metrics the switched-off run is worse or better."""
+    if any(row.get(f"{m}_mark") == stats.SEED_NOISE for m in metrics):
+        return (f"{stats.SEED_NOISE}: {row['n_scenes']} scene(s), fewer than the {stats.MIN_SCENES} a verdict needs; the intervals "
+                "resample its runs")
     by: dict[str, list[str]] = {"worse": [], "better": [], "tied": []}
     for m in metrics:
         mark = row.get(f"{m}_mark")
@@ -300,12 +359,12 @@ def table3(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
     groups = _groups(recs, ("method", "ablation"))
     fid = _fid_column([r for g in groups.values() for r in g.values()], notes)
     compared = (*AVERAGE_METRICS, fid, *GEOMETRY_METRICS)
-    metrics = (*compared, "amcr")
+    metrics = (*compared, "amcr", "residual", "collateral")
     table = Table(
         "table3_ablation", "Ablations against the full method (paper Tab. 3)",
         labels=[("block", "Block"), ("method", "Method"), ("row", "Row"), ("segmenter", "Segmenter"), ("kind", "Kind"), ("row_type", "Row type"),
                 ("runs", "Runs")],
-        columns=[Column("n_runs", "runs", fmt="d"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)],
+        columns=[Column("n_runs", "runs", fmt="d"), Column("n_scenes", "scenes", fmt="d"), *(_metric_column(m, m == "fd_vgg16") for m in metrics)],
         notes=notes, csv_only=("method", "kind", "row_type"), rule_by="block", compared=True,
     )
     summaries, block = [], 0
@@ -351,7 +410,7 @@ def table3(records: list[dict], boot: Bootstrap = Bootstrap()) -> Table:
     if table.rows:
         notes[0:0] = _stats_notes({r for g in groups.values() for r in g}, boot) + [
             "Each block compares the full method with the ablations on the runs they share; in a Δ row worse / better means the "
-            "method with that switch off is worse / better than with it."]
+            "method with that switch off is worse / better than with it.", ROI_PSNR_NOTE]
     notes += summaries
     return table
 
@@ -371,11 +430,15 @@ def per_scene_table(records: list[dict]) -> Table:
     order = sorted(range(len(records)), key=lambda i: (records[i]["labels"]["scene"], KIND_ORDER[records[i]["labels"]["kind"]],
                                                        first[_key(records[i])], _seed_order(records[i]["labels"].get("seed", "")), i))
     reasons: dict[tuple[str, str], list[str]] = {}
+    above: dict[int, list[str]] = {}
+    for f in removal_failures(records):
+        unit = "×" if f["limit"] == "amcr_ratio" else " %"
+        above.setdefault(id(f["record"]), []).append(f"above limit: {f['limit']} {f['value']:.2f}{unit} > {f['max']:g}{unit}")
     for i in order:
         r = records[i]
         lab = r["labels"]
         row = {"scene": lab["scene"], "method": lab["method"], "name": _name(r), "segmenter": lab["segmenter"], "kind": lab["kind"],
-               "seed": lab.get("seed", ""), "note": r.get("skip_reason") or ""}
+               "seed": lab.get("seed", ""), "note": "; ".join([r.get("skip_reason") or "", *above.get(id(r), [])]).strip("; ")}
         row.update({m: r["metrics"][m] for m in METRIC_COLUMNS})
         table.rows.append(row)
         if not r.get("skip_reason"):
@@ -387,9 +450,10 @@ def per_scene_table(records: list[dict]) -> Table:
         notes.append(f"{len(skipped)} run(s) have no metrics (reason in the note column) and are left out of every average.")
     for (m, why), where in reasons.items():
         notes.append(f"{METRIC_COLUMNS[m][0]} is null in {len(where)} run(s) ({why}): {', '.join(where[:3])}{', ...' if len(where) > 3 else '.'}")
+    if above:
+        notes.append(f"{len(above)} run(s) are above a removal limit ({'; '.join(LIMIT_TEXT.values())}): the note column says which.")
     notes.append("One row per run, nothing marked: a single run carries no interval (the averages and their intervals are in table1_average "
-                 "and table3_ablation). AMCR = the run's own removal masks at the test cameras (paper supp. Eq. 1); unseen share = the "
-                 "ground-truth unseen masks' coverage of the test views.")
+                 "and table3_ablation). " + CONTEXT_NOTE)
     return table
 
 

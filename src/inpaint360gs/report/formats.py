@@ -81,9 +81,10 @@ def _legend(table: Table, bold: str) -> str:
     text = ""
     if table.compared:
         text = ("Value ± standard deviation over seeds of the average over scenes (no ± with one seed); "
-                f"Δ rows: mean paired difference [{stats.CONFIDENCE:.0%} paired bootstrap interval over the runs] and better / worse "
-                "(the interval excludes 0) or tied (it includes 0). ↑ higher is better, ↓ lower is better; "
-                f"{bold}: better than every other compared row with an interval excluding 0; (tied): tied for first. ")
+                f"Δ rows: mean paired difference [{stats.CONFIDENCE:.0%} bootstrap interval resampling scenes, each with all its seeds] "
+                f"and better / worse (the interval excludes 0) or tied (it includes 0); \"{stats.SEED_NOISE}\" where fewer than "
+                f"{stats.MIN_SCENES} scenes are compared (the interval then resamples runs: no verdict). ↑ higher is better, ↓ lower is "
+                f"better; {bold}: better than every other compared row with a scene-level interval excluding 0; (tied): tied for first. ")
     text += f"{MISSING} = no value (see the notes)"
     return text + (f", {NOT_RUN} = stage not run by this method." if any(r.get("_not_run") for r in table.rows) else ".")
 

@@ -110,7 +110,11 @@ def provenance(records: list[dict], config: dict | None, seeds: list[int] | None
         "config": None if config is None else {k: config[k] for k in ("path", "sha256", "content")},
         "seeds": seeds or None,
         "seeds_source": seeds_source,
-        "bootstrap": {"method": "percentile at the expanded level (report/stats.py), paired over (scene, seed) runs (scipy.stats.bootstrap)",
+        "bootstrap": {"method": "cluster bootstrap, percentile at the level expanded for the number of scenes (report/stats.py, "
+                                "scipy.stats.bootstrap): paired differences formed per (scene, seed) run; intervals resample scenes, "
+                                "each with all its seeds",
+                      "resampling_unit": "scene", "min_scenes": stats.MIN_SCENES,
+                      "below_min_scenes": f"the interval resamples runs and the verdict is '{stats.SEED_NOISE}'",
                       "min_pairs": stats.MIN_PAIRS, **boot.kw()},
         "packages": _versions(),
         "machine": _machine(),

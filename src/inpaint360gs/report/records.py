@@ -10,20 +10,24 @@ A record holds
 - ``metrics``: the evaluation means of ``inpaint360gs evaluate`` (full, ``masked_*``, ``roi_*``; paper
   Sec. 4 "Metrics") and its scene metrics (``fid``, ``fd_vgg16``, ``kid_vgg16``, ``unseen_share``: the
   ground-truth unseen masks' coverage of the test views, ``amcr``: paper supp. Eq. 1 on the run's own
-  removal masks at the test cameras, ``roi_depth_off``: the share of the unseen region the run's model
-  leaves empty or puts off the true surface), each a finite number or null; ``null_reasons`` says why
-  each null is null;
+  removal masks over the training views, ``silhouette_test``: the removed silhouette at the test
+  cameras, ``roi_depth_off``: the share of the unseen region the run's model leaves empty or puts off
+  the true surface), and the removal's ground-truth scores of ``inpaint360gs score-removal``
+  (``residual``, ``collateral``, ``gt_footprint_share``; docs/architecture.md, "Ground-truth removal
+  scores"), each a finite number or null; ``null_reasons`` says why each null is null;
 - ``skip_reason``: set (and every metric null) for a scene without ground truth, which has no evaluation;
 - ``stages``: per stage, wall seconds (mean over the repeats of a Snakemake ``benchmark:`` file),
   max RSS in MB (max over the repeats; null where Snakemake wrote ``NA``), CPU seconds, repeats;
 - ``model``: the model files and their total size, ``storage_mb`` (10^6 bytes; paper Tab. 2 "Storage");
 - ``weights``: the weights files the evaluation used (path and sha256), for the tables' provenance;
-- ``sources``: path and sha256 of every file the record was made from.
+- ``sources``: path and sha256 of every file the record was made from, and the folders they name.
 
 Every value is checked when a record is written and again when it is read (docs/architecture.md,
 "Reliability"): a bad input is one :class:`~inpaint360gs.core.errors.InputError` naming the file.
-Records of format 1 (before ``unseen_share``) are read with their ``amcr``, which was the unseen
-masks' coverage, as ``unseen_share`` and ``amcr`` null; evaluations without ``unseen_share`` likewise.
+Older records and evaluations are read with what their numbers were: format 1 (before
+``unseen_share``): its ``amcr`` was the unseen masks' coverage, read as ``unseen_share``; format 2
+(before ``silhouette_test``): its ``amcr`` was the silhouette at the test cameras, read as
+``silhouette_test``; in both ``amcr`` (training views) and the removal scores are null with the reason.
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import check_readable, sha256_file
 from inpaint360gs.io import provenance
 
-FORMAT = "inpaint360gs-table-record/2"
+FORMAT = "inpaint360gs-table-record/3"
+FORMAT_2 = "inpaint360gs-table-record/2"  # read: its ``amcr`` was the silhouette at the test cameras (``silhouette_test``)
 FORMAT_1 = "inpaint360gs-table-record/1"  # read: its ``amcr`` was the unseen masks' coverage (``unseen_share``)
 KINDS = ("method", "baseline", "ablation", "sweep")  # sweep: the full method at another L (virtual_views label)
 REQUIRED_LABELS = ("scene", "method", "segmenter")
@@ -48,10 +53,16 @@ MEAN_METRICS = (
     "masked_psnr", "masked_ssim", "masked_lpips", "masked_lpips_alex",
     "roi_psnr", "roi_ssim", "roi_lpips", "roi_lpips_alex",
 )
-SCENE_METRICS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "roi_depth_off")
+SCENE_METRICS = ("fid", "fd_vgg16", "kid_vgg16", "unseen_share", "amcr", "silhouette_test", "roi_depth_off")
+# the removal's ground-truth scores (``inpaint360gs score-removal``)
+REMOVAL_METRICS = ("residual", "collateral", "gt_footprint_share")
 # why ``amcr`` is null in what was written before it was computed on the removal masks
 OLD_AMCR_REASON = "not recorded: this {} is from before AMCR was computed on the removal masks (its 'amcr' was the unseen share)"
-METRICS = MEAN_METRICS + SCENE_METRICS
+# ... and before it was computed over the training views (supp. Eq. 1)
+OLD_SILHOUETTE_REASON = ("not recorded: this {} is from before AMCR was computed over the training views (its 'amcr' was the "
+                         "removed silhouette at the test cameras, now silhouette_test)")
+NO_REMOVAL_SCORES = "no removal scores given (table record --removal-scores SCORES.json, written by inpaint360gs score-removal)"
+METRICS = MEAN_METRICS + SCENE_METRICS + REMOVAL_METRICS
 
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 _SEED = re.compile(r"^[0-9]+$")
@@ -143,9 +154,11 @@ def read_evaluation(path: str | Path) -> dict:
     mean, scene = data["mean"], data.get("scene_metrics", {})
     if not isinstance(scene, dict):
         raise InputError("'scene_metrics' must be a JSON object", where)
-    old_amcr = "unseen_share" not in scene and "amcr" in scene  # written before the two were told apart
-    if old_amcr:
-        scene = {**scene, "unseen_share": scene["amcr"], "amcr": None}
+    old: dict[str, str] = {}  # what an older evaluation's numbers were (module docstring)
+    if "unseen_share" not in scene and "amcr" in scene:  # written before the unseen share and AMCR were told apart
+        scene, old["amcr"] = {**scene, "unseen_share": scene["amcr"], "amcr": None}, OLD_AMCR_REASON.format("evaluation")
+    elif "silhouette_test" not in scene and "amcr" in scene:  # AMCR was the silhouette at the test cameras
+        scene, old["amcr"] = {**scene, "silhouette_test": scene["amcr"], "amcr": None}, OLD_SILHOUETTE_REASON.format("evaluation")
     if "psnr" not in mean:
         raise InputError("not an evaluation JSON: 'mean' has no 'psnr'", where)
     given_reasons = data.get("null_reasons") if isinstance(data.get("null_reasons"), dict) else {}
@@ -158,7 +171,7 @@ def read_evaluation(path: str | Path) -> dict:
                 continue
             metrics[k] = _number(src[k], where, f"{group}.{k}")
             if metrics[k] is None:
-                reasons[k] = OLD_AMCR_REASON.format("evaluation") if old_amcr and k == "amcr" else str(known.get(k) or "null in the evaluation, no reason given")
+                reasons[k] = old.get(k) or str(known.get(k) or "null in the evaluation, no reason given")
     weights = {}
     if not isinstance(data.get("weights") or {}, dict):
         raise InputError("'weights' must be a JSON object", where)
@@ -172,7 +185,30 @@ def read_evaluation(path: str | Path) -> dict:
     num_views = data.get("num_views")
     if num_views is not None and (isinstance(num_views, bool) or not isinstance(num_views, int) or num_views < 0):
         raise InputError(f"num_views must be a non-negative integer, got {num_views!r}", where)
-    return {"metrics": metrics, "null_reasons": reasons, "num_views": num_views, "weights": weights}
+    renders = data.get("renders_dir")
+    return {"metrics": metrics, "null_reasons": reasons, "num_views": num_views, "weights": weights,
+            "renders_dir": renders if isinstance(renders, str) else None}
+
+
+def read_removal_scores(path: str | Path) -> dict:
+    """The parts of an ``inpaint360gs score-removal`` JSON a record keeps: :data:`REMOVAL_METRICS` and
+    ``amcr`` (missing or null ones with a reason), the removal folder and the scene's name."""
+    data = read_json(path, "a removal scores JSON (inpaint360gs score-removal)")
+    where = str(path)
+    if not isinstance(data, dict) or not isinstance(data.get("scores"), dict):
+        raise InputError("not a removal scores JSON: no 'scores' object (written by inpaint360gs score-removal)", where)
+    known = data.get("null_reasons") if isinstance(data.get("null_reasons"), dict) else {}
+    metrics, reasons = {}, {}
+    for k in (*REMOVAL_METRICS, "amcr"):
+        if k not in data["scores"]:
+            raise InputError(f"not a removal scores JSON: 'scores' has no {k!r}", where)
+        metrics[k] = _number(data["scores"][k], where, f"scores.{k}", nonneg=True)
+        if metrics[k] is None:
+            reasons[k] = str(known.get(k) or "null in the removal scores, no reason given")
+    rec = provenance.read(path, "score-removal")
+    removal = data.get("removal")
+    return {"metrics": metrics, "null_reasons": reasons, "removal": removal if isinstance(removal, str) else None,
+            "scene": rec.scene.get("name") if rec is not None else None}
 
 
 def read_benchmark(path: str | Path) -> dict:
@@ -267,15 +303,28 @@ def check_evaluation_of(evaluation: str | Path, labels: dict[str, str], models: 
                          "give the evaluation of this run's renders, or its model", evaluation)  # fmt: skip
 
 
+def _check_scores_of(path: str | Path, scores: dict, labels: dict[str, str], amcr: float | None) -> None:
+    """Removal scores of another scene, or of another removal than the evaluation's, are refused."""
+    if scores["scene"] and scores["scene"] != labels["scene"]:
+        raise InputError(f"removal scores of scene {scores['scene']!r}, but the record is labelled scene={labels['scene']}: "
+                         f"give the scores of {labels['scene']!r}'s removal", path)  # fmt: skip
+    theirs = scores["metrics"]["amcr"]
+    if amcr is not None and theirs is not None and not math.isclose(amcr, theirs, rel_tol=1e-9, abs_tol=1e-9):
+        raise InputError(f"removal scores with AMCR {theirs:.6g} %, the evaluation's removal {amcr:.6g} %: "
+                         "scores of another removal than the one evaluated", path)  # fmt: skip
+
+
 def make_record(
     labels: dict[str, str],
     *,
     evaluation: str | Path | None = None,
+    removal_scores: str | Path | None = None,
     stages: list[tuple[str, Path]] = (),
     models: list[str | Path] = (),
     skip_reason: str | None = None,
 ) -> dict:
-    """Build a record (see the module docstring); every input is read and checked here."""
+    """Build a record (see the module docstring); every input is read and checked here. The removal
+    scores must be of the labelled scene and, where both hold AMCR, of the evaluation's removal."""
     check_labels(labels)
     if evaluation is None and not skip_reason:
         raise InputError("without an evaluation the record needs a skip reason (why this run has no metrics, e.g. no ground truth)", setting="skip_reason")
@@ -283,12 +332,26 @@ def make_record(
         raise InputError("a skip reason is for runs without an evaluation; this one has an evaluation", setting="skip_reason")
     if skip_reason is not None and ("\n" in skip_reason or not skip_reason.strip()):
         raise InputError("must be one non-empty line", setting="skip_reason")
-    sources: dict = {"eval": None, "stages": {}, "models": []}
+    sources: dict = {"eval": None, "removal_scores": None, "stages": {}, "models": []}
     if evaluation is not None:
         ev = read_evaluation(evaluation)
-        sources["eval"] = {"path": str(evaluation), "sha256": sha256_file(evaluation)}
+        sources["eval"] = {"path": str(evaluation), "sha256": sha256_file(evaluation), "renders_dir": ev["renders_dir"]}
+        ev["metrics"].update(dict.fromkeys(REMOVAL_METRICS))
+        ev["null_reasons"].update(dict.fromkeys(REMOVAL_METRICS, NO_REMOVAL_SCORES))
     else:
         ev = {"metrics": dict.fromkeys(METRICS), "null_reasons": dict.fromkeys(METRICS, skip_reason), "num_views": None, "weights": {}}
+    if removal_scores is not None and evaluation is not None:
+        rs = read_removal_scores(removal_scores)
+        _check_scores_of(removal_scores, rs, labels, ev["metrics"].get("amcr"))
+        sources["removal_scores"] = {"path": str(removal_scores), "sha256": sha256_file(removal_scores), "removal": rs["removal"]}
+        for k in REMOVAL_METRICS:
+            ev["metrics"][k] = rs["metrics"][k]
+            ev["null_reasons"].pop(k, None)
+            if rs["metrics"][k] is None:
+                ev["null_reasons"][k] = rs["null_reasons"][k]
+        if ev["metrics"]["amcr"] is None and rs["metrics"]["amcr"] is not None:  # an evaluation without --removal
+            ev["metrics"]["amcr"] = rs["metrics"]["amcr"]
+            ev["null_reasons"].pop("amcr", None)
     bench = {}
     for name, path in stages:
         if name in bench:
@@ -321,20 +384,34 @@ def check_record(data: object, where: str) -> dict:
     """Validate a record read from ``where``; returns it (with ``_path`` set)."""
     if not isinstance(data, dict):
         raise InputError(f"expected a record (JSON object), found a JSON {type(data).__name__}", where)
-    if data.get("format") not in (FORMAT, FORMAT_1):
+    if data.get("format") not in (FORMAT, FORMAT_2, FORMAT_1):
         raise InputError(f"not a table record (format {data.get('format')!r}, expected {FORMAT!r}; written by inpaint360gs table record)", where)
     check_labels(data.get("labels"), where)
     metrics = data.get("metrics")
     if not isinstance(metrics, dict):
         raise InputError("'metrics' must be a JSON object", where)
+    reasons = data.get("null_reasons")
     if data["format"] == FORMAT_1 and "unseen_share" not in metrics:
         metrics["unseen_share"], metrics["amcr"], metrics["roi_depth_off"] = metrics.get("amcr"), None, None
-        reasons = data.get("null_reasons")
         if isinstance(reasons, dict):
             if "amcr" in reasons:
                 reasons["unseen_share"] = reasons.pop("amcr")
             reasons["amcr"] = data.get("skip_reason") or OLD_AMCR_REASON.format("record")
             reasons["roi_depth_off"] = data.get("skip_reason") or "not recorded: a record of format 1"
+        metrics["silhouette_test"] = None
+        if isinstance(reasons, dict):
+            reasons["silhouette_test"] = data.get("skip_reason") or "not recorded: a record of format 1"
+    elif data["format"] == FORMAT_2 and "silhouette_test" not in metrics:
+        metrics["silhouette_test"], metrics["amcr"] = metrics.get("amcr"), None
+        if isinstance(reasons, dict):
+            if "amcr" in reasons:
+                reasons["silhouette_test"] = reasons.pop("amcr")
+            reasons["amcr"] = data.get("skip_reason") or OLD_SILHOUETTE_REASON.format("record")
+    if data["format"] in (FORMAT_1, FORMAT_2):
+        for k in REMOVAL_METRICS:
+            metrics.setdefault(k, None)
+            if isinstance(reasons, dict):
+                reasons.setdefault(k, data.get("skip_reason") or f"not recorded: a record of format {data['format'][-1]}")
     for k in METRICS:
         if k not in metrics:
             raise InputError(f"metric {k!r} missing", where)
