@@ -16,10 +16,12 @@ removal and inpainting:
 Three layouts, each drawn from a layout seed: ``dozer`` (a toy bulldozer with dark tracks and
 chassis on two placemats whose seam crosses under it, on a wooden table), ``teapot`` (a teapot on
 wood grain against a bread box that stays: a backdrop), ``duck`` (a small rubber duck on the edge of
-a woven rug). Scene names carry the suite and the layout seed (``dozer-dev1``, ``dozer-test2``,
-``dozer-dev1-sparse``); dev and test layouts come from disjoint random streams, so a test scene's
-positions, angles, colours and seams are never those of a dev scene (docs/architecture.md,
-"Development and test scenes").
+a woven rug). Scene names carry the random stream and the layout seed (``dozer-dev1``,
+``dozer-test3``, ``dozer-test3-sparse``); the dev and test streams are disjoint, so a test scene's
+positions, angles, colours and seams are never those of a dev scene. The test stream's first seeds
+(``*-test1``, ``*-test2``, ``*-test1-sparse``) were run and looked at while settings changed: they
+are development scenes now, under their old names (:data:`LOOKED_AT`); the test suite is the test
+stream's later seeds (docs/architecture.md, "Development and test scenes").
 """
 
 from __future__ import annotations
@@ -34,8 +36,10 @@ from dataset_tools.synth.textures import Material
 
 FAMILY = "realistic"
 LAYOUTS = ("dozer", "teapot", "duck")
-SEEDS = {"dev": (1, 2), "test": (1, 2)}  # layout seeds per suite (drawn from separate streams)
-SPARSE = {"dev": (1,), "test": (1,)}  # which of them also get a ~25-photo variant
+SEEDS = {"dev": (1, 2), "test": (1, 2, 3, 4)}  # layout seeds per random stream (separate streams)
+SPARSE = {"dev": (1,), "test": (1, 3, 4)}  # which of them also get a ~25-photo variant
+# layout seeds of the test stream that were run and looked at while settings changed: development scenes now
+LOOKED_AT = {"test": (1, 2)}
 SPARSE_VIEWS = 25  # object-inclusive photos of a sparse variant (a real hand-held capture's count)
 
 # Camera effects of the family: ~0.1 stop exposure and 3 % white-balance spread, noise of ~2/255
@@ -251,13 +255,15 @@ def duck(suite: str, k: int, sparse: bool = False) -> SceneSpec:
 
 
 def _spec(layout: str, suite: str, k: int, sparse: bool, description: str, background, objects, ao_radius: float) -> SceneSpec:
+    """The scene of ``layout`` at layout seed ``k`` of the random stream ``suite`` (its name); in the dev
+    suite when the stream is dev or the seed was looked at (:data:`LOOKED_AT`), else in the test suite."""
     name = f"{layout}-{suite}{k}" + ("-sparse" if sparse else "")
     n_views = SPARSE_VIEWS if sparse else 56
     targets = tuple(o.id for o in objects if o.target)  # the photos frame the object to remove
     return SceneSpec(
         name, description + (f"; sparse: {SPARSE_VIEWS} photos" if sparse else ""), tuple(background), tuple(objects),
         orbit=Orbit(elevation=ORBIT_ELEVATION, frame=targets), light=Light(ao=0.85, ao_radius=ao_radius, ao_samples=8),
-        n_views=n_views, n_test=16, photo=PHOTO, poses="colmap", family=FAMILY, suite=suite,
+        n_views=n_views, n_test=16, photo=PHOTO, poses="colmap", family=FAMILY, suite="dev" if k in LOOKED_AT.get(suite, ()) else suite,
     )
 
 

@@ -15,7 +15,7 @@ from dataset_tools.synth import SCENES, build_scene, generate_scene, load_scene
 from dataset_tools.synth.catalogue import BENCHMARK_SCENES, LOW_UNSEEN_SHARE, suite_scenes
 from dataset_tools.synth.photo import develop
 from dataset_tools.synth.raycast import World
-from dataset_tools.synth.realistic import LAYOUTS, MAT_T, SPARSE_VIEWS
+from dataset_tools.synth.realistic import LAYOUTS, LOOKED_AT, MAT_T, SPARSE_VIEWS
 from dataset_tools.synth.render import render
 from dataset_tools.synth.spec import SceneSpec
 from dataset_tools.synth.textures import albedo
@@ -114,6 +114,9 @@ def test_suites_split_the_catalogue():
             assert sum(not n.endswith("-sparse") for n in names) >= 2 and sum(n.endswith("-sparse") for n in names) >= 1
     with pytest.raises(InputError, match="unknown suite"):
         suite_scenes("train")
+    # the sealed test suite: at least 12 scenes, none of the test stream's layouts that were looked at
+    assert len(test) >= 12 and not {n for n in test if int(n.split("-")[1].removeprefix("test")) in LOOKED_AT["test"]}
+    assert {"dozer-test1", "teapot-test2", "duck-test1-sparse"} <= dev
 
 
 def test_layouts_vary_with_the_seed_and_test_layouts_are_not_dev_layouts():
@@ -127,7 +130,9 @@ def test_layouts_vary_with_the_seed_and_test_layouts_are_not_dev_layouts():
                 assert {o.yaw for o in SCENES[names[i]].objects}.isdisjoint(o.yaw for o in SCENES[names[j]].objects)
     for n in REALISTIC:
         s = SCENES[n]
-        assert s.poses == "colmap" and s.light.ao > 0 and s.photo.active and s.suite in n
+        stream, k = n.split("-")[1].rstrip("0123456789"), int("".join(c for c in n.split("-")[1] if c.isdigit()))
+        assert s.poses == "colmap" and s.light.ao > 0 and s.photo.active
+        assert s.suite == ("dev" if stream == "dev" or k in LOOKED_AT.get(stream, ()) else "test"), n
         if n.endswith("-sparse"):  # the same layout as its dense sibling, ~25 photos
             dense = SCENES[n.removesuffix("-sparse")]
             assert _layout(s) == _layout(dense) and s.n_views == SPARSE_VIEWS and dense.n_views == 56
