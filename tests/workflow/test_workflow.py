@@ -23,16 +23,17 @@ def _count(out: str, rule: str) -> int:
 
 
 def test_dry_run_with_typed_command_line_values(tmp_path):
-    p = _dry_run(tmp_path, "reduced=true", "poses=colmap", "scenes=[cone,toys]", "train_scenes=[cone]", "seeds=[3,5]", "ablation_scenes=[all]",
+    p = _dry_run(tmp_path, "reduced=true", "poses=colmap", "scenes=[cone,toys]", "train_scenes=[cone]", "seeds=[3,5]", "ablation_scenes=[all]", "ablation_seeds=0",
                  "train={iterations: 1000, schedule_scale: auto, max_gaussians: 0, backend: auto, extra_args: ''}")
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
     # two generated scenes and their COLMAP rebuilds, 3DGS on each (once, for both seeds), the
     # reconstruction table; per scene and seed one segmentation, two associations (KOM, and the
-    # tracker of ablation a) each with its own distillation and removal, seven inpaintings (every
-    # method but removal only), one render of the removal, eight evaluations and records; one set of tables
+    # tracker of ablation a) each with its own distillation, removal and removal scores, seven inpaintings
+    # (every method but removal only), one render of the removal, eight evaluations and records; one set of tables
     counts = [("synth_scene", 2), ("colmap_scene", 2), ("train_3dgs", 2), ("table_3dgs", 1), ("segment", 4), ("associate", 8),
-              ("distill", 8), ("remove", 8), ("render_removed", 4), ("inpaint", 28), ("evaluate", 32), ("record", 32), ("paper_tables", 1)]
+              ("distill", 8), ("remove", 8), ("score_removal", 8), ("render_removed", 4), ("inpaint", 28), ("evaluate", 32), ("record", 32),
+              ("paper_tables", 1)]
     for rule, n in counts:
         assert _count(out, rule) == n, (rule, out[-3000:])
     # the seed reaches every seeded stage after 3DGS, and names the run's folder; 3DGS keeps `seed`
@@ -40,6 +41,9 @@ def test_dry_run_with_typed_command_line_values(tmp_path):
         assert any(f"inpaint360gs {stage} " in line and "--seed 5" in line and "/seed5/" in line for line in out.splitlines()), stage
     assert all("--seed 0" in line for line in out.splitlines() if "inpaint360gs train " in line)
     assert "--label seed=5" in out and "--seeds 3 5" in out
+    # every record takes its removal's scores, the tables keep the runs above a limit
+    assert all("--removal-scores " in line and "/removal_scores.json" in line for line in out.splitlines() if "inpaint360gs table record " in line)
+    assert "--keep-failed " in out and f"{tmp_path}/results/failed" in out
 
 
 def test_scene_folders_and_method_subsets(tmp_path):
@@ -59,7 +63,8 @@ def test_scene_folders_and_method_subsets(tmp_path):
     "bad,named",
     [("reduced=maybe", "reduced"), ("poses=guess", "poses"), ("train_scenes=[nosuchscene]", "nosuchscene"), ("methods=[magic]", "magic"),
      ("scenes=[./no/such/folder]", "no/such/folder"), ("segmenters=[]", "segmenters"), ("suite=train", "suite"), ("seeds=[]", "seeds"),
-     ("seeds=[1,1]", "repeat"), ("seeds=[-1]", "seeds"), ("ablation_scenes={abl_z: [cone]}", "abl_z"),
+     ("seeds=[1,1]", "repeat"), ("seeds=[-1]", "seeds"), ("ablation_scenes={abl_z: [cone]}", "abl_z"), ("ablation_seeds=-1", "ablation_seeds"),
+     ("keep_failed=maybe", "keep_failed"),
      ("segmenters=[magic]", "unknown segmenter"), ("train={preset: fast, schedule_scale: auto}", "is no preset"),
      ("captures={k: {photos: p, clicks: ['a.png:1,2'], preset: fast}}", "captures.k.preset")],
 )  # fmt: skip
@@ -149,7 +154,7 @@ def test_suites_and_the_realistic_familys_own_poses(tmp_path):
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
     assert count(out, "synth_scene") == len(suite_scenes("test")) and count(out, "colmap_scene") == 0
-    assert "dozer-test1" in out and "dozer-dev1" not in out
+    assert "dozer-test3" in out and "dozer-dev1" not in out and "dozer-test1" not in out  # the looked-at test layouts are dev scenes
 
 
 def test_the_method_list_is_the_one_of_common_smk():
@@ -168,33 +173,40 @@ def test_the_method_list_is_the_one_of_common_smk():
     assert yaml.safe_load((ROOT / "workflow" / "config" / "config.yaml").read_text())["methods"] == defined
 
 
-def test_default_benchmark_is_the_test_suite_at_three_seeds_with_ablations_where_they_matter(tmp_path):
-    """`make benchmark`'s plan: every test scene, 3DGS once per scene, every later stage at seeds
-    0, 1, 2, the method and both baselines everywhere, each ablation on its two property scenes (the
-    same layouts in the dev suite), the 3DGS table over the benchmark's own scenes."""
+def test_default_benchmark_is_the_sealed_test_suite_with_ablations_on_six_scenes_each(tmp_path):
+    """`make benchmark`'s plan: every test scene, 3DGS once per scene, every later stage at seeds 0
+    and 1, the method and both baselines everywhere, each ablation on the six scenes that have what it
+    is about, at seed 0 (the same layouts in the dev suite), the 3DGS table over the benchmark's own
+    scenes, one removal score per removal."""
     from dataset_tools.synth import suite_scenes
 
     test = suite_scenes("test")
     p = _dry_run(tmp_path)
     assert p.returncode == 0, p.stderr[-2000:]
     out = p.stdout + p.stderr
-    n, runs = len(test), 3 * len(test)
-    counts = {"synth_scene": n, "colmap_scene": 0, "train_3dgs": n, "table_3dgs": 1, "segment": runs, "associate": runs + 6, "distill": runs + 6,
-              "remove": runs + 6, "render_removed": runs, "inpaint": 2 * runs + 5 * 6, "evaluate": 3 * runs + 30, "record": 3 * runs + 30,
-              "paper_tables": 1}
+    n, runs, abl = len(test), 2 * len(test), 6
+    counts = {"synth_scene": n, "colmap_scene": 0, "train_3dgs": n, "table_3dgs": 1, "segment": runs, "associate": runs + abl, "distill": runs + abl,
+              "remove": runs + abl, "score_removal": runs + abl, "render_removed": runs, "inpaint": 2 * runs + 5 * abl,
+              "evaluate": 3 * runs + 5 * abl, "record": 3 * runs + 5 * abl, "paper_tables": 1}
     assert {rule: _count(out, rule) for rule in counts} == counts
-    where = {m: {line.split("/methods/")[0].split("/out/")[1].split("/")[0] for line in out.splitlines()
-                 if "inpaint360gs inpaint " in line and f"/methods/{m} " in line} for m in ("abl_a", "abl_b", "abl_c", "abl_d", "abl_e", "full")}
-    assert where == {"abl_a": {"teapot-test1", "teapot-test2"}, "abl_b": {"teapot-test1", "teapot-test2"}, "abl_c": {"dozer-test1-sparse", "duck-test1-sparse"},
-                     "abl_d": {"dozer-test1", "dozer-test2"}, "abl_e": {"duck-test1", "duck-test2"}, "full": set(test)}
-    assert not any("dev" in line for line in out.splitlines() if "inpaint360gs" in line)
+    lines = [line for line in out.splitlines() if "inpaint360gs inpaint " in line]
+    where = {m: {line.split("/methods/")[0].split("/out/")[1].split("/")[0] for line in lines if f"/methods/{m} " in line}
+             for m in ("abl_a", "abl_b", "abl_c", "abl_d", "abl_e", "full")}
+    teapots = {"teapot-test3", "teapot-test4", "teapot-test3-sparse", "teapot-test4-sparse"}
+    assert where == {"abl_a": teapots | {"dozer-test3", "dozer-test4"}, "abl_b": teapots | {"dozer-test3", "dozer-test4"},
+                     "abl_c": {f"{x}-test{k}-sparse" for x in ("dozer", "duck", "teapot") for k in (3, 4)},
+                     "abl_d": {"dozer-test3", "dozer-test4", "dozer-test3-sparse", "dozer-test4-sparse", "duck-test3", "duck-test4"},
+                     "abl_e": {"duck-test3", "duck-test4", "duck-test3-sparse", "duck-test4-sparse", "dozer-test3", "dozer-test4"}, "full": set(test)}
+    assert all("/seed0/" in line for line in lines if "/methods/abl_" in line)
+    assert {line.split("/out/")[1].split("/")[1] for line in lines if "/methods/full " in line} == {"seed0", "seed1"}
+    assert not any("dev" in line or "-test1" in line or "-test2" in line for line in out.splitlines() if "inpaint360gs" in line)
     # the same plan on the dev suite puts the ablations on the dev scenes of the same layouts
     p = _dry_run(tmp_path, "scenes=[dev]", "methods=[full,abl_a,abl_c]", "seeds=[0]", "train_scenes=[]")
     assert p.returncode == 0, p.stderr[-2000:]
     lines = [line for line in (p.stdout + p.stderr).splitlines() if "inpaint360gs inpaint " in line]
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/teapot-dev2/" in line} == {"full", "abl_a"}
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/duck-dev1-sparse/" in line} == {"full", "abl_c"}
-    assert sum("/methods/abl_" in line for line in lines) == 4
+    assert sum("/methods/abl_a " in line for line in lines) == 10 and sum("/methods/abl_c " in line for line in lines) == 6
 
 
 def test_the_kitchen_config_builds_runs_and_scores_a_capture(tmp_path):

@@ -32,10 +32,36 @@ rule evaluate:
         " --removal {params.removed:q} --model {params.model:q} --backend {params.backend} --threads {threads} > {log:q} 2>&1"
 
 
+rule score_removal:
+    """What a run's removal took (`inpaint360gs score-removal`; docs/architecture.md, "Ground-truth
+    removal scores"): AMCR over the training views (paper supp. Eq. 1) and, against a synthetic
+    scene's gt/, residual, collateral and the true footprint share, with the limits a run must stay
+    within. One per removal: every method with the same association shares it."""
+    input:
+        scene_json=lambda wc: f"{scene_dir(wc.scene)}/scene.json",
+        removal=f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/{{association}}/removed/removal.json",
+    output:
+        f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/{{association}}/removal_scores.json",
+    params:
+        scene_dir=lambda wc: scene_dir(wc.scene),
+        removed=lambda wc: f"{run_dir(wc)}/{wc.association}/removed",
+        backend=BACKEND,
+    threads: 1
+    resources:
+        mem_mb=4000,
+    log:
+        f"{OUT}/logs/{{scene}}/seed{{seed}}/{{segmenter}}/{{association}}/score_removal.log",
+    benchmark:
+        f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/{{association}}/score_removal.tsv"
+    shell:
+        "inpaint360gs score-removal {params.scene_dir:q} {params.removed:q} {output:q} --backend {params.backend} --threads {threads} > {log:q} 2>&1"
+
+
 rule record:
     """One self-describing record per (scene, seed, segmenter, method): labels, metrics, stage times, storage."""
     input:
         evaluation=f"{OUT}/{{scene}}/seed{{seed}}/{{segmenter}}/eval/{{method}}.json",
+        removal_scores=lambda wc: f"{run_dir(wc)}/{METHODS[wc.method]['association']}/removal_scores.json",
         benchmarks=lambda wc: list(stage_benchmarks(wc).values()),
         stage=method_model,
     output:
@@ -51,13 +77,15 @@ rule record:
     log:
         f"{OUT}/logs/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/record.log",
     shell:
-        "inpaint360gs table record {output:q} {params.labels} --eval {input.evaluation:q} {params.stages}"
+        "inpaint360gs table record {output:q} {params.labels} --eval {input.evaluation:q} --removal-scores {input.removal_scores:q} {params.stages}"
         " --model {params.model:q} > {log:q} 2>&1"
 
 
 rule paper_tables:
     """per_scene, table1_average, table3_ablation, table2_runtime (CSV, Markdown, LaTeX) + provenance.json;
-    seed spreads and paired bootstrap intervals over the (scene, seed) runs (docs/guide.md, "Tables of the paper")."""
+    seed spreads and paired bootstrap intervals that resample scenes (docs/guide.md, "Tables of the paper");
+    every run above a removal limit named under Tab. 1 and, with `keep_failed`, its test renders and
+    removal masks copied into results_dir/failed/."""
     input:
         records=[f"{OUT}/{s}/seed{k}/{g}/records/{m}.json" for s, k, g, m in runs()],
     output:
@@ -76,13 +104,15 @@ rule paper_tables:
         ]
         if SWEEP and "full" in config["methods"]
         else [],
+        failed=[directory(f"{RESULTS}/failed")] if config["keep_failed"] else [],
     params:
         out=RESULTS,
         seeds=" ".join(str(k) for k in SEEDS),
+        keep_failed=f"--keep-failed {shlex.quote(RESULTS + '/failed')}" if config["keep_failed"] else "",
         config_text=yaml.safe_dump(dict(config), sort_keys=False),
     log:
         f"{OUT}/logs/paper_tables.log",
     shell:
         "printf '%s' {params.config_text:q} > {output.config:q} &&"
         " inpaint360gs table paper {input.records:q} --out-dir {params.out:q} --config {output.config:q}"
-        " --seeds {params.seeds} > {log:q} 2>&1"
+        " --seeds {params.seeds} {params.keep_failed} > {log:q} 2>&1"
