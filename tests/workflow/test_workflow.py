@@ -170,7 +170,7 @@ def test_the_method_list_is_the_one_of_common_smk():
 
 def test_default_benchmark_is_the_test_suite_at_three_seeds_with_ablations_where_they_matter(tmp_path):
     """`make benchmark`'s plan: every test scene, 3DGS once per scene, every later stage at seeds
-    0, 1, 2, the method and both baselines everywhere, each ablation on its two property scenes (the
+    0, 1, 2, the method and the three baselines everywhere, each ablation on its two property scenes (the
     same layouts in the dev suite), the 3DGS table over the benchmark's own scenes."""
     from dataset_tools.synth import suite_scenes
 
@@ -180,7 +180,7 @@ def test_default_benchmark_is_the_test_suite_at_three_seeds_with_ablations_where
     out = p.stdout + p.stderr
     n, runs = len(test), 3 * len(test)
     counts = {"synth_scene": n, "colmap_scene": 0, "train_3dgs": n, "table_3dgs": 1, "segment": runs, "associate": runs + 6, "distill": runs + 6,
-              "remove": runs + 6, "render_removed": runs, "inpaint": 2 * runs + 5 * 6, "evaluate": 3 * runs + 30, "record": 3 * runs + 30,
+              "remove": runs + 6, "render_removed": runs, "inpaint": 3 * runs + 5 * 6, "evaluate": 4 * runs + 30, "record": 4 * runs + 30,
               "paper_tables": 1}
     assert {rule: _count(out, rule) for rule in counts} == counts
     where = {m: {line.split("/methods/")[0].split("/out/")[1].split("/")[0] for line in out.splitlines()
@@ -195,6 +195,26 @@ def test_default_benchmark_is_the_test_suite_at_three_seeds_with_ablations_where
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/teapot-dev2/" in line} == {"full", "abl_a"}
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/duck-dev1-sparse/" in line} == {"full", "abl_c"}
     assert sum("/methods/abl_" in line for line in lines) == 4
+
+
+def test_strong_baseline_is_planned_as_a_baseline_with_gaussian_groupings_switches(tmp_path):
+    """`gg_style` (the strong baseline) inpaints on the method's KOM removal with the per-view fills of
+    the training views, depth-guided new Gaussians, density control and LPIPS inside the mask, and its
+    record is labelled a baseline (so Tab. 1 compares the method with it); `per_view_2d` stays the
+    weak one (no new Gaussians, no density control)."""
+    p = _dry_run(tmp_path, "scenes=[cone]", "train_scenes=[]", "methods=[full,per_view_2d,gg_style]", "seeds=[0]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    lines = {m: [line for line in out.splitlines() if "inpaint360gs inpaint " in line and f"/methods/{m} " in line] for m in ("gg_style", "per_view_2d")}
+    assert len(lines["gg_style"]) == 1 and len(lines["per_view_2d"]) == 1
+    gg = lines["gg_style"][0].split()
+    assert "/seed0/geometric/kom/removed" in lines["gg_style"][0]
+    for switch in (["--views", "training"], ["--masks", "footprint"], ["--init", "depth"], ["--supervision", "lpips"], ["--densify"], ["--no-condition"]):
+        assert any(gg[i : i + len(switch)] == switch for i in range(len(gg))), switch
+    weak = lines["per_view_2d"][0].split()
+    assert "--densify" not in weak and any(weak[i : i + 2] == ["--init", "none"] for i in range(len(weak)))
+    records = [line for line in out.splitlines() if "inpaint360gs table record" in line and "method=gg_style" in line]
+    assert len(records) == 1 and "kind=baseline" in records[0], records
 
 
 def test_the_kitchen_config_builds_runs_and_scores_a_capture(tmp_path):
