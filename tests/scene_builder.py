@@ -267,3 +267,21 @@ def blobs_scene(root: Path, *, n_views: int = 16, n_test: int = 2, width: int = 
     colors = (model.sh0[:, 0] * 0.28209479177387814 + 0.5).clamp(0, 1).numpy()
     colmap.write_model(root / "sparse" / "0", cams, model.means.numpy()[labels.numpy() != 1], colors[labels.numpy() != 1])
     return root, model, labels
+
+
+def textured_floor(step: float = 0.1, half: float = 1.6) -> Gaussians:
+    """Flat opaque Gaussians on the plane z = 0 with a colour ramp and checker (degree 1 SH), ``step``
+    apart over [-half, half]^2 (the 3D inpainting tests' floor)."""
+    import torch
+
+    from inpaint360gs.core.gaussians import Gaussians
+
+    g = np.arange(-half, half + 1e-9, step)
+    x, y = np.meshgrid(g, g)
+    pts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
+    checker = (np.floor(x.ravel() / 0.3) + np.floor(y.ravel() / 0.3)) % 2
+    rgb = np.stack([0.3 + 0.2 * checker + 0.1 * x.ravel(), 0.5 - 0.15 * y.ravel(), 0.2 + 0.5 * checker], 1).clip(0, 1)
+    model = Gaussians.from_points(torch.tensor(pts, dtype=torch.float32), torch.tensor(rgb, dtype=torch.float32), sh_degree=1,
+                                  init_opacity=0.99, scales=torch.full((len(pts),), 0.75 * step))  # fmt: skip
+    model.log_scales[:, 2] = math.log(1e-3)
+    return model

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import torch
 
+from scene_builder import textured_floor
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.inpaint.conditioned import InpaintedView, inpaint_views, reprojection_error
@@ -304,19 +305,6 @@ def test_the_crops_of_3d_inpainting_match_the_full_render_up_to_the_jacobian_cla
 
 
 # --- 3D inpainting: which Gaussians change, and the loss goes down --------------------------------------
-
-
-def textured_floor(step: float = 0.1, half: float = 1.6) -> Gaussians:
-    """Flat opaque Gaussians on the plane z = 0 with a colour ramp and checker (degree 1 SH)."""
-    g = np.arange(-half, half + 1e-9, step)
-    x, y = np.meshgrid(g, g)
-    pts = np.stack([x.ravel(), y.ravel(), np.zeros(x.size)], 1)
-    checker = (np.floor(x.ravel() / 0.3) + np.floor(y.ravel() / 0.3)) % 2
-    rgb = np.stack([0.3 + 0.2 * checker + 0.1 * x.ravel(), 0.5 - 0.15 * y.ravel(), 0.2 + 0.5 * checker], 1).clip(0, 1)
-    model = Gaussians.from_points(torch.tensor(pts, dtype=torch.float32), torch.tensor(rgb, dtype=torch.float32), sh_degree=1,
-                                  init_opacity=0.99, scales=torch.full((len(pts),), 0.75 * step))  # fmt: skip
-    model.log_scales[:, 2] = math.log(1e-3)
-    return model
 
 
 def floor_cameras(angles_deg, w: int = W, h: int = H, f: float = 26.0, radius: float = 2.2, height: float = 1.6) -> list[Camera]:

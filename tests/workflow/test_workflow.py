@@ -29,10 +29,10 @@ def test_dry_run_with_typed_command_line_values(tmp_path):
     out = p.stdout + p.stderr
     # two generated scenes and their COLMAP rebuilds, 3DGS on each (once, for both seeds), the
     # reconstruction table; per scene and seed one segmentation, two associations (KOM, and the
-    # tracker of ablation a) each with its own distillation, removal and removal scores, seven inpaintings
-    # (every method but removal only), one render of the removal, eight evaluations and records; one set of tables
+    # tracker of ablation a) each with its own distillation, removal and removal scores, eight inpaintings
+    # (every method but removal only), one render of the removal, nine evaluations and records; one set of tables
     counts = [("synth_scene", 2), ("colmap_scene", 2), ("train_3dgs", 2), ("table_3dgs", 1), ("segment", 4), ("associate", 8),
-              ("distill", 8), ("remove", 8), ("score_removal", 8), ("render_removed", 4), ("inpaint", 28), ("evaluate", 32), ("record", 32),
+              ("distill", 8), ("remove", 8), ("score_removal", 8), ("render_removed", 4), ("inpaint", 32), ("evaluate", 36), ("record", 36),
               ("paper_tables", 1)]
     for rule, n in counts:
         assert _count(out, rule) == n, (rule, out[-3000:])
@@ -175,7 +175,7 @@ def test_the_method_list_is_the_one_of_common_smk():
 
 def test_default_benchmark_is_the_sealed_test_suite_with_ablations_on_six_scenes_each(tmp_path):
     """`make benchmark`'s plan: every test scene, 3DGS once per scene, every later stage at seeds 0
-    and 1, the method and both baselines everywhere, each ablation on the six scenes that have what it
+    and 1, the method and the three baselines everywhere, each ablation on the six scenes that have what it
     is about, at seed 0 (the same layouts in the dev suite), the 3DGS table over the benchmark's own
     scenes, one removal score per removal."""
     from dataset_tools.synth import suite_scenes
@@ -186,8 +186,8 @@ def test_default_benchmark_is_the_sealed_test_suite_with_ablations_on_six_scenes
     out = p.stdout + p.stderr
     n, runs, abl = len(test), 2 * len(test), 6
     counts = {"synth_scene": n, "colmap_scene": 0, "train_3dgs": n, "table_3dgs": 1, "segment": runs, "associate": runs + abl, "distill": runs + abl,
-              "remove": runs + abl, "score_removal": runs + abl, "render_removed": runs, "inpaint": 2 * runs + 5 * abl,
-              "evaluate": 3 * runs + 5 * abl, "record": 3 * runs + 5 * abl, "paper_tables": 1}
+              "remove": runs + abl, "score_removal": runs + abl, "render_removed": runs, "inpaint": 3 * runs + 5 * abl,
+              "evaluate": 4 * runs + 5 * abl, "record": 4 * runs + 5 * abl, "paper_tables": 1}
     assert {rule: _count(out, rule) for rule in counts} == counts
     lines = [line for line in out.splitlines() if "inpaint360gs inpaint " in line]
     where = {m: {line.split("/methods/")[0].split("/out/")[1].split("/")[0] for line in lines if f"/methods/{m} " in line}
@@ -207,6 +207,26 @@ def test_default_benchmark_is_the_sealed_test_suite_with_ablations_on_six_scenes
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/teapot-dev2/" in line} == {"full", "abl_a"}
     assert {line.split("/methods/")[1].split()[0] for line in lines if "/duck-dev1-sparse/" in line} == {"full", "abl_c"}
     assert sum("/methods/abl_a " in line for line in lines) == 10 and sum("/methods/abl_c " in line for line in lines) == 6
+
+
+def test_strong_baseline_is_planned_as_a_baseline_with_gaussian_groupings_switches(tmp_path):
+    """`gg_style` (the strong baseline) inpaints on the method's KOM removal with the per-view fills of
+    the training views, depth-guided new Gaussians, density control and LPIPS inside the mask, and its
+    record is labelled a baseline (so Tab. 1 compares the method with it); `per_view_2d` stays the
+    weak one (no new Gaussians, no density control)."""
+    p = _dry_run(tmp_path, "scenes=[cone]", "train_scenes=[]", "methods=[full,per_view_2d,gg_style]", "seeds=[0]")
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = p.stdout + p.stderr
+    lines = {m: [line for line in out.splitlines() if "inpaint360gs inpaint " in line and f"/methods/{m} " in line] for m in ("gg_style", "per_view_2d")}
+    assert len(lines["gg_style"]) == 1 and len(lines["per_view_2d"]) == 1
+    gg = lines["gg_style"][0].split()
+    assert "/seed0/geometric/kom/removed" in lines["gg_style"][0]
+    for switch in (["--views", "training"], ["--masks", "footprint"], ["--init", "depth"], ["--supervision", "lpips"], ["--densify"], ["--no-condition"]):
+        assert any(gg[i : i + len(switch)] == switch for i in range(len(gg))), switch
+    weak = lines["per_view_2d"][0].split()
+    assert "--densify" not in weak and any(weak[i : i + 2] == ["--init", "none"] for i in range(len(weak)))
+    records = [line for line in out.splitlines() if "inpaint360gs table record" in line and "method=gg_style" in line]
+    assert len(records) == 1 and "kind=baseline" in records[0], records
 
 
 def test_the_kitchen_config_builds_runs_and_scores_a_capture(tmp_path):

@@ -15,9 +15,11 @@ from inpaint360gs.cli.common import (
     check_apart,
     existing_dir,
     existing_file,
+    fraction,
     nonneg_float,
     nonneg_int,
     output_dir,
+    positive_float,
     positive_int,
     set_threads,
 )
@@ -35,7 +37,11 @@ def add_inpaint_arguments(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--masks", default=d.masks, choices=["unseen", "footprint"], help="geometric unseen masks (default) or the removed objects' whole footprint (a per-view 2D baseline)")
     g.add_argument("--no-condition", action="store_true", help="inpaint each view on its own (ablation d)")
     g.add_argument("--init", default=d.init, choices=["depth", "naive", "none"], help="new Gaussians from the inpainted depth (default), uniform in the object's box (ablation b), or none")
-    g.add_argument("--supervision", default=d.refine.supervision, choices=["hybrid", "mask"], help="Eq. 6 hybrid loss (default) or mask-only (ablation e)")
+    g.add_argument("--supervision", default=d.refine.supervision, choices=["hybrid", "mask", "lpips"],
+                   help="Eq. 6 hybrid loss (default), mask-only (ablation e), or Gaussian Grouping's: LPIPS inside the mask, L1 outside (the strong baseline)")
+    g.add_argument("--densify", action="store_true", help="3DGS clone/split/prune of the Gaussians that train during 3D inpainting (the strong baseline; the method keeps its count)")
+    g.add_argument("--densify-until", type=fraction, default=d.refine.densify_until, help=f"with --densify: share of the steps it runs for (default {d.refine.densify_until})")
+    g.add_argument("--densify-grad", type=positive_float, default=d.refine.densify_grad, help=f"with --densify: view-space gradient threshold (default {d.refine.densify_grad})")
     g.add_argument("--refine-variant", default=d.refine.variant, choices=["paper", "code"], help="paper: lambda1 0.2, lambda2 0.005, 2000 iterations (default); code: the authors' public code")
     g.add_argument("--inpaint-iterations", type=positive_int, default=None, help="3D inpainting steps (default 2000; 5000 with --refine-variant code)")
     g.add_argument("--lambda-dssim", type=nonneg_float, default=None, help="lambda1 of Eq. 6 (default: the variant's)")
@@ -55,6 +61,7 @@ def inpaint_config(args: argparse.Namespace, seed: int, backend: str):
     r = RefineConfig(
         variant=args.refine_variant, supervision=args.supervision, iterations=args.inpaint_iterations,
         lambda_dssim=args.lambda_dssim, lambda_lpips=args.lambda_lpips, seed=seed, backend=backend,
+        densify=args.densify, densify_until=args.densify_until, densify_grad=args.densify_grad,
     ).resolved()  # explicit values override the variant's  # fmt: skip
     return InpaintConfig(
         views=args.views, masks=args.masks, condition=not args.no_condition, init=args.init,

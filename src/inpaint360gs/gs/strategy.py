@@ -94,7 +94,10 @@ class DensifyStrategy(Strategy):
         if step >= cfg.densify_until:
             return stats
         if out.means2d.grad is not None:
-            self.accumulate(state, out.means2d.grad, out.radii, camera.width, camera.height)
+            # the render may have drawn fixed Gaussians after the trained ones (3D inpainting draws
+            # the static scene behind them): the first rows are the params'
+            n = params["means"].shape[0]
+            self.accumulate(state, out.means2d.grad[:n], out.radii[:n], camera.width, camera.height)
         if step > cfg.densify_from and step % cfg.densify_every == 0:
             stats = self.densify_and_prune(params, optimizers, state, prune_big=step > cfg.opacity_reset_every, generator=generator)
         if step > 0 and step % cfg.opacity_reset_every == 0:

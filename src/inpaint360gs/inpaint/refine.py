@@ -14,6 +14,12 @@ authors' public code instead (λ1 = 0.8, λ2 = 0.0005, 5000 iterations, L1 over 
 ``supervision="mask"`` is ablation e) (Tab. 3, "w/o 3D hybrid supervision"): only the masked L1
 (and LPIPS) terms, and only Gaussians inside the masked region (new ones, and those whose centre
 projects into a mask) may move — the naive scheme the paper argues against.
+``supervision="lpips"`` is Gaussian Grouping's object-inpainting loss (Ye et al., ECCV 2024, Sec. 3.4),
+for the strong baseline: L1 on the valid pixels outside the mask, LPIPS on the masked crop, no
+L1 inside the mask (per-view fills disagree there, and L1 would average them into a blur), with
+λ2 = 1 unless given. ``densify`` turns on 3DGS's adaptive density control (clone / split / prune,
+:class:`~inpaint360gs.gs.strategy.DensifyStrategy`) for the Gaussians that train, as Gaussian
+Grouping's fine-tuning does; the method keeps the count its initialisation gave.
 
 The Gaussians around the region to fill train (every parameter, 3DGS learning rates, the means'
 rate decaying over the run) through the shared optimisation loop (:mod:`inpaint360gs.gs.loop`);
@@ -31,10 +37,11 @@ import torch
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
-from inpaint360gs.gs.config import TrainConfig
+from inpaint360gs.gs.config import DensifyConfig, TrainConfig
 from inpaint360gs.gs.loop import OptimizationLoop, Target, TargetList
 from inpaint360gs.gs.loss import ssim_map
 from inpaint360gs.gs.optim import PARAM_NAMES, learning_rates, means_lr
+from inpaint360gs.gs.strategy import DensifyStrategy
 from inpaint360gs.inpaint.conditioned import InpaintedView
 from inpaint360gs.render.api import render
 
@@ -46,8 +53,8 @@ class RefineConfig:
     variant: str = "paper"  # "paper" | "code": the authors' public code (0.8 / 0.0005 / 5000, L1 over the whole image)
     iterations: int | None = None  # None: the variant's (2000 paper, 5000 code)
     lambda_dssim: float | None = None  # λ1; None: the variant's (0.2 paper, 0.8 code)
-    lambda_lpips: float | None = None  # λ2; None: the variant's (0.005 paper, 0.0005 code)
-    supervision: str = "hybrid"  # "hybrid" (Eq. 6) | "mask": ablation e)
+    lambda_lpips: float | None = None  # λ2; None: the variant's (0.005 paper, 0.0005 code; 1 with supervision "lpips")
+    supervision: str = "hybrid"  # "hybrid" (Eq. 6) | "mask": ablation e) | "lpips": Gaussian Grouping's (LPIPS in the mask, L1 outside)
     # LPIPS network of the loss. AlexNet: a step's forward + backward through it is far cheaper on CPU than
     # through VGG16 (results/README.md, "Metrics"); the evaluation uses VGG like the paper's code.
     lpips_net: str = "alex"  # "alex" | "vgg"
@@ -60,6 +67,12 @@ class RefineConfig:
     # smaller than this are used whole.
     patch_px: int = 96  # pixels, >= 0
     region_margin: float = 0.5  # Gaussians within this x the region's diagonal of it train (see refine)
+    # 3DGS adaptive density control of the Gaussians that train (densify_config): every 100 steps
+    # from the 100th until this share of the iterations, no opacity reset (a run this short has no
+    # time to recover from one). Off for the method (paper Sec. 3.5); on for the strong baseline.
+    densify: bool = False
+    densify_until: float = 0.5  # share of the iterations, in [0, 1]
+    densify_grad: float = 2e-4  # mean view-space gradient (NDC units of the view's crop) above which a Gaussian is cloned or split, > 0
     seed: int = 0  # seeds the optimisation loop (views, patch centres)
     backend: str = "auto"  # rasterizer backend: auto | torch | numba | gsplat
 
@@ -68,15 +81,27 @@ class RefineConfig:
         for an unknown variant or supervision."""
         if self.variant not in ("paper", "code"):
             raise InputError(f"unknown 3D inpainting variant {self.variant!r} (paper, code)", setting="RefineConfig.variant")
-        if self.supervision not in ("hybrid", "mask"):
-            raise InputError(f"unknown supervision {self.supervision!r} (hybrid, mask)", setting="RefineConfig.supervision")
+        if self.supervision not in ("hybrid", "mask", "lpips"):
+            raise InputError(f"unknown supervision {self.supervision!r} (hybrid, mask, lpips)", setting="RefineConfig.supervision")
+        if not 0.0 <= self.densify_until <= 1.0:
+            raise InputError(f"densify_until must be in [0, 1], got {self.densify_until}", setting="RefineConfig.densify_until")
+        if not self.densify_grad > 0:
+            raise InputError(f"densify_grad must be > 0, got {self.densify_grad}", setting="RefineConfig.densify_grad")
         paper = self.variant == "paper"
+        lpips_weight = 1.0 if self.supervision == "lpips" else 0.005 if paper else 0.0005
         return replace(
             self,
             iterations=(2000 if paper else 5000) if self.iterations is None else self.iterations,
             lambda_dssim=(0.2 if paper else 0.8) if self.lambda_dssim is None else self.lambda_dssim,
-            lambda_lpips=(0.005 if paper else 0.0005) if self.lambda_lpips is None else self.lambda_lpips,
+            lambda_lpips=lpips_weight if self.lambda_lpips is None else self.lambda_lpips,
         )
+
+    def densify_config(self) -> DensifyConfig:
+        """The density control of a run of ``iterations`` steps (see ``densify``): 3DGS's thresholds,
+        clone or split every 100 steps after step 100 until ``densify_until`` of the run, prune the
+        nearly transparent ones, never reset opacities (so neither prune the large ones)."""
+        n = self.resolved().iterations
+        return DensifyConfig(grad_threshold=self.densify_grad, densify_from=100, densify_until=round(self.densify_until * n), densify_every=100, opacity_reset_every=n + 1)
 
 
 def _bbox(mask: torch.Tensor, margin: int) -> tuple[slice, slice]:
@@ -101,18 +126,22 @@ def _lpips_crop(x: torch.Tensor, rs: slice, cs: slice, net: str) -> torch.Tensor
 
 
 def hybrid_loss(pred: torch.Tensor, target: torch.Tensor, mask: torch.Tensor, valid: torch.Tensor, cfg: RefineConfig) -> tuple[torch.Tensor, dict[str, float]]:
-    """Eq. 6 on (H, W, 3) images, ``mask`` (H, W) bool (the region filled), ``valid`` (H, W) bool."""
+    """Eq. 6 on (H, W, 3) images, ``mask`` (H, W) bool (the region filled), ``valid`` (H, W) bool;
+    with ``supervision="lpips"`` Gaussian Grouping's loss instead (the module docstring)."""
     from inpaint360gs.metrics.lpips import lpips
 
     m = mask.to(pred.dtype)[..., None]
     n_mask = m.sum().clamp_min(1.0)
-    if cfg.variant == "code":  # the public code: L1 over the whole (valid) image
+    if cfg.supervision == "lpips":  # L1 outside the mask only
+        out = (valid & ~mask).to(pred.dtype)[..., None]
+        l1 = ((pred - target).abs() * out).sum() / (3 * out.sum().clamp_min(1.0))
+    elif cfg.variant == "code":  # the public code: L1 over the whole (valid) image
         v = valid.to(pred.dtype)[..., None]
         l1 = ((pred - target).abs() * v).sum() / (3 * v.sum().clamp_min(1.0))
     else:
         l1 = ((pred - target).abs() * m).sum() / (3 * n_mask)
     logs = {"l1": l1.item()}
-    if cfg.supervision == "mask":
+    if cfg.supervision in ("mask", "lpips"):
         loss = l1
     else:
         s = ssim_map(pred, target).mean(-1)
@@ -214,7 +243,9 @@ def refine(
     crop around its mask (the bounding box grown by half its size): outside it nothing can change.
     On a CPU this makes the 2000 steps ~2.8x cheaper (full-size cone: 565 s -> 204 s; the static
     Gaussians are culled to the crop once per view and neither projected for gradients nor stepped
-    by Adam)."""
+    by Adam). With ``cfg.densify`` the active Gaussians are cloned, split and pruned on the 3DGS
+    schedule (:meth:`RefineConfig.densify_config`), the static ones never: the model returned is the
+    static Gaussians, bit for bit, then the active ones as the run left them, their number changed."""
     cfg = (cfg or RefineConfig()).resolved()
     from inpaint360gs.render.backends import preferred_device
 
@@ -264,14 +295,19 @@ def refine(
         rs, cs = window[0]
         return hybrid_loss(out.color, d["image"][rs, cs], d["mask"][rs, cs], d["valid"][rs, cs], cfg)
 
-    loop = OptimizationLoop(model, train=lrs, views=TargetList(targets), render_fn=render_fn, loss_fn=loss_fn, seed=cfg.seed)
+    # densification works on the trained rows only (the render draws the static ones after them)
+    strategy = DensifyStrategy(cfg.densify_config(), extent) if cfg.densify else None
+    loop = OptimizationLoop(model, train=lrs, views=TargetList(targets), render_fn=render_fn, loss_fn=loss_fn, strategy=strategy, seed=cfg.seed)
     log = []
+    grown = {"cloned": 0, "split": 0, "pruned": 0}
     for i in range(cfg.iterations):
         res = loop.step()
+        for k in grown:
+            grown[k] += getattr(res.stats, k)
         if progress is not None:
             progress(1)
         if (i + 1) % 50 == 0 or i + 1 == cfg.iterations:
-            log.append({"step": i + 1, "loss": res.loss, **res.logs})
+            log.append({"step": i + 1, "loss": res.loss, **res.logs, **({"gaussians": len(loop.params["means"]), **grown} if cfg.densify else {})})
     trained = loop.detached().to("cpu")
     final = Gaussians(**{k: torch.cat([getattr(static, k), getattr(trained, k)], 0) for k in PARAM_NAMES})
     return final, log
