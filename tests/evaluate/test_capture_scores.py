@@ -26,7 +26,7 @@ def removal(tmp_path_factory):
     write_ply(base / "3dgs" / "point_cloud.ply", model)
     field = labelled_field(model, labels, IDS)
     write_field(base / "distill", field, scene)
-    remove_stage(field, scene, base / "removed", ids=[3])
+    remove_stage(scene, field, base / "removed", ids=[3])
     other, _, _ = sb.blobs_scene(base / "other", n_views=9, n_test=0)
     return base, root, other
 

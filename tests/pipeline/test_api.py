@@ -47,20 +47,38 @@ def test_the_cli_default_is_the_cpu_preset_and_options_override_it(tiny_scene, t
     parser = argparse.ArgumentParser()
     add_arguments(parser)
     cpu = inpaint360gs.PRESETS["cpu"]
-    assert run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o")])) == cpu.run_config()
+    assert run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o")])) == cpu
     gpu = run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o"), "--preset", "gpu", "--seed", "3"]))
-    assert gpu == inpaint360gs.PRESETS["gpu"].run_config(seed=3)
+    assert gpu == dataclasses.replace(inpaint360gs.PRESETS["gpu"], seed=3)
     assert (gpu.train.iterations, gpu.train.schedule_scale, gpu.train.densify.max_gaussians, gpu.backend) == (30000, 1.0, 0, "gsplat")
     mine = run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o"), "--preset", "gpu", "--iterations", "600", "--backend", "torch"]))
     assert (mine.train.iterations, mine.train.schedule_scale, mine.distill.backend, mine.inpaint.refine.backend) == (600, 0.02, "torch", "torch")
-    assert (cpu.iterations, cpu.max_gaussians) == (3000, 120_000)
+    assert (cpu.train.iterations, cpu.train.densify.max_gaussians) == (3000, 120_000)
     with pytest.raises(InputError, match="unknown preset"):
         inpaint360gs.get_preset("fast")
 
 
+def test_presets_are_whole_configs_changed_with_replace():
+    """A preset is a RunConfig; ``dataclasses.replace`` of its seed or backend reaches every stage,
+    ``get_preset`` gives a copy (changing it leaves the preset as it was), and a wrong type is
+    refused on construction naming the setting."""
+    cpu = inpaint360gs.get_preset("cpu")
+    assert isinstance(cpu, inpaint360gs.RunConfig) and cpu == inpaint360gs.PRESETS["cpu"] and cpu is not inpaint360gs.PRESETS["cpu"]
+    mine = dataclasses.replace(cpu, seed=7, backend="torch")
+    assert (mine.train.seed, mine.distill.seed, mine.inpaint.refine.seed) == (7, 7, 7)
+    assert {mine.train.backend, mine.distill.backend, mine.inpaint.backend, mine.inpaint.refine.backend} == {"torch"}
+    cpu.removal.threshold = 0.9
+    assert inpaint360gs.PRESETS["cpu"].removal.threshold == 0.7
+    for bad, setting in ((dict(seed=-1), "RunConfig.seed"), (dict(seed="1"), "RunConfig.seed"), (dict(backend="opengl"), "RunConfig.backend"),
+                         (dict(train="fast"), "RunConfig.train")):  # fmt: skip
+        with pytest.raises(InputError) as e:
+            dataclasses.replace(cpu, **bad)
+        assert e.value.setting == setting
+
+
 def test_remove_object_runs_the_stages_and_reports_them(tiny_scene, tmp_path):
     root, model = tiny_scene
-    cfg = inpaint360gs.get_preset("cpu").run_config()
+    cfg = inpaint360gs.get_preset("cpu")
     cfg = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=20))
     out = tmp_path / "out"
     res = inpaint360gs.remove_object(str(root), out, ids=[1], preset=cfg, model=model, until="remove")
@@ -100,7 +118,7 @@ def test_the_workflow_trains_with_the_cpu_preset(tmp_path):
         assert out.returncode == 0, out.stderr[-2000:]
         return next(line for line in out.stdout.splitlines() if "inpaint360gs train " in line)
 
-    assert f"--iterations {cpu.iterations} --schedule-scale auto --max-gaussians {cpu.max_gaussians} --backend {cpu.backend} " in planned()
+    assert f"--iterations {cpu.train.iterations} --schedule-scale auto --max-gaussians {cpu.train.densify.max_gaussians} --backend {cpu.backend} " in planned()
     assert "--iterations 500 --schedule-scale auto --max-gaussians 0 --backend torch " in planned("train={preset: gpu, iterations: 500, schedule_scale: auto, backend: torch}")
 
 
@@ -116,15 +134,13 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
 
     readme = (SRC.parent / "README.md").read_text()
     code = re.search(r"```python\n(.*?)```", readme, re.S).group(1)
-    full = presets.Preset.run_config
-
-    def ci_budget(self, **kw):
-        cfg = full(self, **{**kw, "iterations": 1000, "distill_iterations": 100})
+    ci = {}
+    for name, cfg in presets.PRESETS.items():
+        cfg = presets.with_budget(cfg, iterations=1000)
         inp = cfg.inpaint
         inp = dataclasses.replace(inp, refine=dataclasses.replace(inp.refine, iterations=50), virtual=dataclasses.replace(inp.virtual, num_views=4))
-        return dataclasses.replace(cfg, inpaint=inp)
-
-    monkeypatch.setattr(presets.Preset, "run_config", ci_budget)
+        ci[name] = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=100), inpaint=inp)
+    monkeypatch.setattr(presets, "PRESETS", ci)
     monkeypatch.chdir(tmp_path)
     assert dataset_main(["synth", "data/synthetic", "--scenes", "cone", "--reduced", "--quiet"]) == 0
     namespace = {}

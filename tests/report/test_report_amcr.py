@@ -34,7 +34,7 @@ def removed(make_blobs_scene):
     field = labelled_field(model, labels, IDS)
     out = root.parent / "removed"
     cfg = RemovalConfig(hull=False, protect_support=None, support_column=None, footprint_margin=None)
-    remove_stage(field, scene, out, ids=[3], cfg=cfg)
+    remove_stage(scene, field, out, ids=[3], cfg=cfg)
     return scene, field.gaussians, labels, out
 
 

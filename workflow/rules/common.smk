@@ -22,7 +22,8 @@ for _where, _preset in [("train.preset", config["train"].get("preset", "cpu"))] 
     if _preset not in PRESETS:
         raise WorkflowError(f"config: {_where} {_preset!r} is no preset; known: {sorted(PRESETS)}")
 _PRESET = get_preset(config["train"].get("preset", "cpu"))
-TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else getattr(_PRESET, k) for k in ("iterations", "max_gaussians", "backend")}
+_BUDGET = {"iterations": _PRESET.train.iterations, "max_gaussians": _PRESET.train.densify.max_gaussians, "backend": _PRESET.backend}
+TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else v for k, v in _BUDGET.items()}
 
 # Distillation and inpainting settings: the library's defaults (their config dataclasses), each
 # replaced by the value `distill:` / `inpaint:` gives

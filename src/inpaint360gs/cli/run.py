@@ -16,7 +16,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from inpaint360gs.cli.inpaint import add_inpaint_arguments
     from inpaint360gs.cli.remove import add_click_arguments
     from inpaint360gs.distill.config import DistillConfig
-    from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS
+    from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS, SUMMARIES
     from inpaint360gs.pipeline.run import STAGES
     from inpaint360gs.segment.base import DEFAULT_SEGMENTER, segmenter_names
 
@@ -25,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_click_arguments(parser)
     parser.add_argument("--model", type=existing_file, default=None, help="a trained 3DGS PLY of this scene: skip training")
     parser.add_argument("--until", default=STAGES[-1], choices=STAGES, help="stop after this stage (default: the last)")
-    presets = "; ".join(f"{p.name}: {p.summary}" for p in PRESETS.values())
+    presets = "; ".join(f"{name}: {summary}" for name, summary in SUMMARIES.items())
     parser.add_argument("--preset", default=DEFAULT_PRESET, choices=list(PRESETS), help=f"training budget and backend (default {DEFAULT_PRESET}; {presets})")
     parser.add_argument("--iterations", type=positive_int, default=None, help="3DGS steps, the schedule scaled to them (default: the preset's)")
     parser.add_argument("--max-gaussians", type=nonneg_int, default=None, help="3DGS cap (default: the preset's; 0: none)")
@@ -42,15 +42,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run_config(args: argparse.Namespace):
     """The run's settings (:class:`RunConfig`): the preset's, with what the options give."""
+    from dataclasses import replace
+
+    from inpaint360gs.associate.config import AssociationConfig
     from inpaint360gs.cli.inpaint import inpaint_config
-    from inpaint360gs.pipeline.presets import get_preset
+    from inpaint360gs.pipeline.presets import get_preset, with_budget
 
     preset = get_preset(args.preset)
     backend = preset.backend if args.backend is None else args.backend
-    return preset.run_config(
-        seed=args.seed, backend=backend, iterations=args.iterations, max_gaussians=args.max_gaussians, distill_iterations=args.distill_iterations,
-        segmenter=args.segmenter, association=args.association, inpaint=inpaint_config(args, args.seed, backend),
-    )  # fmt: skip
+    cfg = with_budget(preset, iterations=args.iterations, max_gaussians=args.max_gaussians)
+    return replace(cfg, seed=args.seed, backend=backend, segmenter=args.segmenter, association=AssociationConfig(method=args.association).resolved(),
+                   distill=replace(cfg.distill, iterations=args.distill_iterations), inpaint=inpaint_config(args, args.seed, backend))  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:

@@ -4,7 +4,7 @@ a folder written by one is picked up by the other, stage by stage."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Iterable, Union
 
@@ -82,7 +82,7 @@ def remove_object(
     preset: str | RunConfig = DEFAULT_PRESET,
     model: str | Path | None = None,
     until: str = STAGES[-1],
-    seed: int = 0,
+    seed: int | None = None,
     progress: bool = False,
 ) -> RemovalResult:
     """Remove the clicked objects from ``scene`` and inpaint what they hid (paper Alg. 1), into ``out``
@@ -92,15 +92,18 @@ def remove_object(
     earlier run's); ``clicks`` on the object, each ``(view, x, y)``, ``"VIEW:X,Y"`` or a
     :class:`Click`, in the pixels of ``images/`` (default: ``scene.json``'s clicks); ``ids`` object ids
     to remove besides; ``preset`` ``"cpu"``, ``"gpu"`` or ``"paper"`` (:mod:`.presets`), or a whole
-    :class:`RunConfig`; ``model`` a trained 3DGS PLY of the scene (skips training); ``until`` the last
-    stage to run (one of :data:`STAGES`); ``seed`` the seed of every stage (with a preset name);
+    :class:`RunConfig` (a preset changed with ``dataclasses.replace``); ``model`` a trained 3DGS PLY of
+    the scene (skips training); ``until`` the last stage to run (one of :data:`STAGES`); ``seed`` the
+    seed of every stage (None: the preset's, 0);
     ``progress`` show progress bars.
     Returns: a :class:`RemovalResult`.
     Raises: :class:`InputError` for a bad scene, click, preset, model, stage or output folder, and when
     a click selects nothing (the stages before the failing one are kept)."""
     if not isinstance(scene, Scene):
         scene = load_scene(scene)
-    cfg = preset if isinstance(preset, RunConfig) else get_preset(preset).run_config(seed=seed)
+    cfg = preset if isinstance(preset, RunConfig) else get_preset(preset)
+    if seed is not None:
+        cfg = replace(cfg, seed=seed)
     runner = Runner(scene, out, cfg, model=model, clicks=[_click(c) for c in clicks or []], ids=list(ids or []), progress=progress)
     done = dict(runner.run(until))
     seconds = {s: t for s, t in runner.record.get(SECONDS_KEY, {}).items() if s in done}

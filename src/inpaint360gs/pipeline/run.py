@@ -15,19 +15,15 @@ import dataclasses
 import hashlib
 import json
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import sha256_file
 from inpaint360gs.core.layout import SCENE_JSON, RunLayout
-from inpaint360gs.gs.config import TrainConfig
-from inpaint360gs.inpaint.stage import InpaintConfig
 from inpaint360gs.io.atomic import remove_tree, write_text
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.remove.config import RemovalConfig
+from inpaint360gs.pipeline.config import RunConfig
 from inpaint360gs.remove.select import Click, check_clicks
-from inpaint360gs.associate.config import AssociationConfig
 
 STAGES = ("train", "segment", "associate", "distill", "remove", "inpaint")
 RUN_JSON = "run.json"
@@ -49,23 +45,6 @@ def check_run_folder(out: Path) -> None:
     for p in sorted(out.iterdir()):
         if p.name not in names and not (p.name.startswith(".") and p.name[1:].split(".")[0] in bases):
             raise InputError(f"output folder holds {p.name!r}, which no stage of a run writes: choose another output (or an empty folder)", out)
-
-
-@dataclass
-class RunConfig:
-    """Every setting of a run; each stage's part is that stage's own config."""
-
-    train: TrainConfig = field(default_factory=TrainConfig)  # 3DGS training (stage "train")
-    segmenter: str = "geometric"  # 2D segmenter by name (segment.base.get_segmenter)
-    segmenter_options: dict = field(default_factory=dict)  # keyword options of that segmenter's config
-    association: AssociationConfig = field(default_factory=AssociationConfig)  # Key Object Management (stage "associate")
-    distill: object = None  # DistillConfig (default when None)
-    removal: RemovalConfig = field(default_factory=RemovalConfig)  # object selection and removal (stage "remove")
-    inpaint: InpaintConfig = field(default_factory=InpaintConfig)  # virtual views, 2D and 3D inpainting (stage "inpaint")
-    seed: int = 0  # the run's seed (presets give it to each stage's config); part of the segment signature
-    backend: str = "auto"  # rasterizer backend of the remove stage: "auto", "torch", "numba" or "gsplat"
-
-
 
 
 def _signature(*parts) -> str:
@@ -228,7 +207,7 @@ class Runner:
     def _train(self) -> None:
         from inpaint360gs.gs.trainer import train_stage
 
-        train_stage(self.scene, self.cfg.train, self.layout.gs, resume=True, overwrite=True, progress=self.progress)
+        train_stage(self.scene, self.layout.gs, self.cfg.train, resume=True, overwrite=True, progress=self.progress)
 
     def _model(self):
         from inpaint360gs.io.ply import read_ply
@@ -240,19 +219,19 @@ class Runner:
         from inpaint360gs.segment.stage import segment_stage
 
         seg = get_segmenter(self.cfg.segmenter, **self.cfg.segmenter_options)
-        segment_stage(self.scene, self._model(), seg, self.layout.segment, model_path=self.model_file, overwrite=True, progress=self.progress)
+        segment_stage(self.scene, self._model(), self.layout.segment, seg, model_path=self.model_file, overwrite=True, progress=self.progress)
 
     def _associate(self) -> None:
         from inpaint360gs.associate.stage import associate_stage
 
-        associate_stage(self.scene, self._model(), self.layout.segment, self.layout.associate, self.cfg.association, overwrite=True,
+        associate_stage(self.scene, self._model(), self.layout.segment, self.layout.associate, self.cfg.association, overwrite=True, progress=self.progress,
                         model_path=self.model_file, meta={"scene": str(self.scene.root), "model": str(self.model_file)})  # fmt: skip
 
     def _distill(self) -> None:
         from inpaint360gs.distill.stage import distill_stage
 
         lay = self.layout
-        distill_stage(self.scene, self.model_file, lay.associate / "object_mask", lay.associate / "objects.json", self.cfg.distill, lay.distill, overwrite=True, progress=self.progress)
+        distill_stage(self.scene, self.model_file, lay.associate / "object_mask", lay.associate / "objects.json", lay.distill, self.cfg.distill, overwrite=True, progress=self.progress)
 
     def _field(self):
         from inpaint360gs.distill.field import IdentityField
@@ -262,10 +241,10 @@ class Runner:
     def _remove(self) -> None:
         from inpaint360gs.remove.stage import remove_stage
 
-        remove_stage(self._field(), self.scene, self.layout.removed, clicks=self.clicks, ids=self.ids, cfg=self.cfg.removal,
-                      backend=self.cfg.backend, overwrite=True, meta={"scene": str(self.scene.root)})  # fmt: skip
+        remove_stage(self.scene, self._field(), self.layout.removed, self.cfg.removal, clicks=self.clicks, ids=self.ids,
+                     backend=self.cfg.backend, overwrite=True, progress=self.progress, meta={"scene": str(self.scene.root)})  # fmt: skip
 
     def _inpaint(self) -> None:
         from inpaint360gs.inpaint.stage import inpaint_stage
 
-        inpaint_stage(self._field(), self.layout.removed, self.scene, self.layout.inpainted, self.cfg.inpaint, overwrite=True, progress=self.progress)
+        inpaint_stage(self.scene, self._field(), self.layout.removed, self.layout.inpainted, self.cfg.inpaint, overwrite=True, progress=self.progress)

@@ -47,22 +47,25 @@ def load_field(folder: str | Path, scene: Scene) -> IdentityField:
 
 
 def remove_stage(
-    field_: IdentityField,
     scene: Scene,
+    field_: IdentityField,
     out: str | Path,
+    cfg: RemovalConfig | None = None,
     *,
     clicks: list[Click] | None = None,
     ids: list[int] | None = None,
-    cfg: RemovalConfig | None = None,
     backend: str = "auto",
     overwrite: bool = False,
+    progress: bool = False,
     meta: dict | None = None,
 ) -> dict:
     """Select (clicks and/or ids), remove, write ``out`` (docs/architecture.md, "Stage outputs").
 
-    Args: ``field_`` the distillation output; ``clicks`` on the object, in ``images/`` pixels; ``ids``
-    object ids to remove besides; ``cfg`` None = defaults; ``backend`` the rasterizer (:func:`render`);
-    ``overwrite`` replace a non-empty ``out``; ``meta`` extra keys for ``removal.json``.
+    Args: ``field_`` the distillation output; ``cfg`` None = defaults; ``clicks`` on the object, in
+    ``images/`` pixels; ``ids`` object ids to remove besides; ``backend`` the rasterizer
+    (:func:`render`); ``overwrite`` replace a non-empty ``out``; ``progress`` taken for the stages'
+    common call shape (the removal takes seconds and shows no bar); ``meta`` extra keys for
+    ``removal.json``.
     Returns: what ``removal.json`` holds.
     Raises: :class:`InputError` for a non-empty ``out`` or a click that selects nothing."""
     cfg = cfg or RemovalConfig()

@@ -20,8 +20,8 @@ from inpaint360gs.render.api import render
 
 @torch.no_grad()
 def render_stage(
-    model: Gaussians,
     scene: Scene,
+    model: Gaussians,
     views: Sequence[View],
     out: str | Path,
     *,
@@ -35,7 +35,8 @@ def render_stage(
     """Render ``views`` into ``out`` (atomically); returns what ``render.json`` holds plus ``empty_views``,
     the number of views where no pixel is covered (alpha < 1/255 everywhere). ``meta`` goes into render.json.
 
-    ``sh_degree``, ``background`` and ``backend`` are passed to :func:`render`.
+    ``sh_degree``, ``background`` and ``backend`` are passed to :func:`render` (the stage has no
+    settings object: these three are its settings).
     Raises: :class:`InputError` for a non-empty ``out`` without ``overwrite``, and what :func:`render` raises."""
     scales, empty = {}, 0
     with atomic_dir(out, overwrite=overwrite) as tmp:
