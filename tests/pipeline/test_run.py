@@ -25,7 +25,7 @@ from inpaint360gs.distill.config import DistillConfig
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner
+from inpaint360gs.pipeline.run import CREATED_KEY, SECONDS_KEY, STAGES, RunConfig, Runner
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.select import Click
 from inpaint360gs.associate.config import AssociationConfig
@@ -58,7 +58,8 @@ class StubRunner(Runner):
         self._stage("associate", self.layout.associate / "objects.json")
 
     def _distill(self):
-        self._stage("distill", self.layout.distill / "classifier.json")
+        self._stage("distill", self.layout.distill / "classifier.json")  # a classifier of objects 1 and 2 (the runner reads their ids)
+        (self.layout.distill / "classifier.json").write_text(json.dumps({"weight": [[0.0]] * 3, "bias": [0.0] * 3, "object_ids": [0, 1, 2]}))
 
     def _remove(self):
         self._stage("remove", self.layout.removed / "removal.json")
@@ -83,7 +84,7 @@ def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_st
     assert done == [("train", "given"), *((s, "ran") for s in STAGES[1:])]
     assert ran == list(STAGES[1:])
     record = json.loads((out / "run.json").read_text())
-    assert set(record) == set(STAGES[1:]) | {SECONDS_KEY}
+    assert set(record) == set(STAGES[1:]) | {SECONDS_KEY, CREATED_KEY} and set(record[CREATED_KEY]) == set(STAGES[1:])
     assert set(record[SECONDS_KEY]) == set(STAGES[1:]) and all(t >= 0 for t in record[SECONDS_KEY].values())  # wall time of each stage that ran
 
     done, ran = stub_run(tiny_scene, out, cfg, model=model)  # nothing changed
@@ -93,7 +94,7 @@ def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_st
         (lambda c: dataclasses.replace(c, distill=DistillConfig(iterations=6)), ["distill", "remove", "inpaint"]),
         (lambda c: dataclasses.replace(c, removal=RemovalConfig(threshold=0.8)), ["remove", "inpaint"]),
         (lambda c: dataclasses.replace(c, association=AssociationConfig(sigma=0.3)), ["associate", "distill", "remove", "inpaint"]),
-        (lambda c: dataclasses.replace(c, segmenter_options={"config": "x"}), ["segment", "associate", "distill", "remove", "inpaint"]),
+        (lambda c: dataclasses.replace(c, segmenter_options={"backend": "torch"}), ["segment", "associate", "distill", "remove", "inpaint"]),
         (lambda c: dataclasses.replace(c, seed=1), ["segment", "associate", "distill", "remove", "inpaint"]),
     ]
     for change, want in cases:
@@ -139,9 +140,15 @@ def test_a_lost_output_or_record_reruns_what_it_must(tiny_scene, tmp_path):
     (out / "associate" / "objects.json").unlink()
     # the lost stage runs again; its signature is unchanged, so what follows stays up to date
     assert stub_run(tiny_scene, out, model=model)[1] == ["associate"]
-    (out / "run.json").write_text("{not json")
-    assert stub_run(tiny_scene, out, model=model)[1] == list(STAGES[1:])
-    (out / "run.json").write_text("[1, 2]")
+    # a record that cannot be read proves no folder the run's own: nothing is removed, the first named
+    for bad in ("{not json", "[1, 2]"):
+        (out / "run.json").write_text(bad)
+        before = sorted(p.relative_to(out) for p in out.rglob("*"))
+        with pytest.raises(InputError, match="segment/ was not written by this run"):
+            stub_run(tiny_scene, out, model=model)
+        assert sorted(p.relative_to(out) for p in out.rglob("*")) == before
+    for stage in ("segment", "associate", "distill", "removed", "inpainted"):
+        shutil.rmtree(out / stage)
     assert stub_run(tiny_scene, out, model=model)[1] == list(STAGES[1:])
 
 
@@ -168,7 +175,7 @@ def test_a_failed_stage_keeps_what_came_before(tiny_scene, tmp_path):
     out, model = tmp_path / "out", tiny_scene[1]
     with pytest.raises(InputError, match="distill failed"):
         stub_run(tiny_scene, out, model=model, fail="distill")
-    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate"}
+    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY, CREATED_KEY} == {"segment", "associate"}
     assert stub_run(tiny_scene, out, model=model)[1] == ["distill", "remove", "inpaint"]
 
 
@@ -201,8 +208,12 @@ def test_clicks_default_to_scene_json(tiny_scene, tmp_path):
 
 def test_an_output_folder_that_is_not_a_run_is_refused(tiny_scene, tmp_path):
     out = tmp_path / "out"
-    (out / "distill").mkdir(parents=True)
+    (out / "distill").mkdir(parents=True)  # named like a stage's folder, but not the run's: refused, kept
     (out / ".segment.123.abc.tmp").mkdir()  # a killed stage's temporary
+    with pytest.raises(InputError, match="distill/ was not written by this run"):
+        stub_run(tiny_scene, out, model=tiny_scene[1], until="segment")
+    assert (out / "distill").is_dir()
+    (out / "distill").rmdir()
     stub_run(tiny_scene, out, model=tiny_scene[1], until="segment")
     (out / "notes.txt").write_text("mine")
     with pytest.raises(InputError, match="holds 'notes.txt'"):
@@ -226,7 +237,7 @@ def test_cli_run_with_the_real_stages(tiny_scene, tmp_path, capsys):
     assert main(argv("--click", f"{VIEW}:0,0")) == 2  # nothing rendered there
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "on empty space" in err[0]
-    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate", "distill"}
+    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY, CREATED_KEY} == {"segment", "associate", "distill"}
     assert not (out / "removed").exists()
 
     assert main(argv("--id", "1")) == 0

@@ -19,6 +19,7 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
 from inpaint360gs.io.ply import read_ply
@@ -113,6 +114,7 @@ def associate_stage(
     segments of another scene or model."""
     from inpaint360gs.segment.stage import SEGMENT_JSON, read_segments
 
+    check_stage_call("associate_stage", scene, out, cfg, AssociationConfig, overwrite=overwrite, progress=progress, models={"model": model}, folders={"segment_dir": segment_dir})
     t0 = time.perf_counter()
     check_output_dir(out, overwrite)  # before any work
     if isinstance(model, (str, Path)):

@@ -33,7 +33,7 @@ from inpaint360gs.core.errors import (
     Terminated,
     TrainingDivergedError,
 )
-from inpaint360gs.core.files import path_problem
+from inpaint360gs.core.files import check_apart, path_problem  # noqa: F401  (check_apart: every CLI's, defined with the file rules)
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -276,54 +276,6 @@ def _writable(folder: bool) -> Callable[[str], Path]:
 
 output_dir = _writable(folder=True)  # argument type: a folder to create or replace (checked before any work)
 output_file = _writable(folder=False)  # argument type: a file to create or replace
-
-
-def _resolved(p: str | Path) -> Path:
-    try:
-        return Path(p).resolve()
-    except (OSError, RuntimeError):  # a symbolic link loop on older Pythons
-        return Path(os.path.abspath(p))
-
-
-def _same(a: Path, b: Path) -> bool:
-    """The same file or folder: equal once resolved, or the same inode (a bind mount, a hard link)."""
-    if a == b:
-        return True
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
-def _within(inner: Path, outer: Path) -> bool:
-    """``inner`` lies inside the folder ``outer`` (both resolved)."""
-    return any(_same(p, outer) for p in inner.parents)
-
-
-def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None], *, replaced: bool = True) -> None:
-    """Raise :class:`InputError` when writing an output would destroy an input or another output
-    (docs/architecture.md, "Reliability": inputs are never written).
-
-    ``outputs`` and ``inputs`` map an argument's name to its path (None: not given). Paths are
-    compared resolved (symbolic links, ``..``, relative paths) and by inode (the same folder under two
-    names). An output may not be an input, nor lie inside an input folder (a scene folder, a stage's
-    output; with or without ``--overwrite``), nor (when the stage ``replaced`` its output folder as a
-    whole, as the atomic folder writers do) be a folder that holds an input; two outputs may not be
-    the same path. A command that writes into a scene (``unseen-masks``) does not list the scene.
-    """
-    outs = [(k, _resolved(v)) for k, v in outputs.items() if v is not None]
-    ins = [(k, _resolved(v)) for k, v in inputs.items() if v is not None]
-    for i, (name, out) in enumerate(outs):
-        for other, path in ins:
-            if _same(out, path):
-                raise InputError(f"output {name} is the input {other} ({path}); choose another output", outputs[name])
-            if os.path.isdir(path) and _within(out, path):
-                raise InputError(f"output {name} lies inside the input {other} ({path}), which this stage reads; choose an output outside it", outputs[name])
-            if replaced and _within(path, out):
-                raise InputError(f"output {name} holds the input {other} ({path}); choose another output", outputs[name])
-        for other, path in outs[:i]:
-            if _same(out, path):
-                raise InputError(f"{other} and {name} are the same path; one output would overwrite the other", outputs[name])
 
 
 # --- threads -----------------------------------------------------------------------------------------

@@ -40,6 +40,7 @@ from inpaint360gs.distill.loss import knn_graph, object_loss, spatial_loss
 from inpaint360gs.gs.loop import OptimizationLoop, Target, TargetList
 from inpaint360gs.gs.trainer import peak_rss_mb
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.ply import read_ply, write_ply
 from inpaint360gs.io.scene import Scene
@@ -212,6 +213,10 @@ def distill_stage(
     made from this scene (or the association not from this model)."""
     from tqdm import tqdm
 
+    check_stage_call("distill_stage", scene, out, cfg, DistillConfig, overwrite=overwrite, progress=progress, out_optional=True, models={"model": model},
+                     folders={"masks_dir": masks_dir, **({"objects": objects} if isinstance(objects, (str, Path)) else {})})
+    if not isinstance(objects, (str, Path)) and not (isinstance(objects, (list, tuple)) and all(isinstance(i, int) and not isinstance(i, bool) for i in objects)):
+        raise InputError(f"expected object ids (a list of whole numbers) or the association's objects.json, got {objects!r:.40}", setting="distill_stage.objects")
     t_start = time.perf_counter()
     cfg = cfg or DistillConfig()
     cfg.validate()

@@ -36,6 +36,7 @@ from inpaint360gs.gs.loop import OptimizationLoop, SceneViews, Target
 from inpaint360gs.gs.optim import Params, learning_rates, means_lr
 from inpaint360gs.gs.strategy import DensifyStrategy
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import bool_argument, check_stage_call
 from inpaint360gs.io.atomic import atomic_path, write_text
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
@@ -161,6 +162,7 @@ class Trainer:
             "config": self.user_cfg.to_dict(),
             "scene": self.scene.name,
             "scene_content_sha256": self.fingerprint,
+            "scene_read_sha256": self.scene.read_fingerprint(),  # the images_<R>/ copies read at this resize too
             "resize": self.scene.resize,
             "train_views": [v.name for v in self.views],
         }
@@ -247,7 +249,7 @@ class Trainer:
         if mine == theirs:
             return None
         diff = [k for k in mine if mine[k] != theirs.get(k)]
-        if "scene_content_sha256" in diff:
+        if "scene_content_sha256" in diff or "scene_read_sha256" in diff:
             return "checkpoint was made on a scene with different content (sparse model or images differ); pass --overwrite to start afresh"
         if "config" in diff:
             a, b = mine["config"], theirs.get("config", {})
@@ -371,4 +373,6 @@ def train_stage(
         InputError: Invalid settings, a scene without sparse points, or a folder holding a previous
             run (or a checkpoint of other settings) that ``resume``/``overwrite`` do not allow to use.
     """
+    check_stage_call("train_stage", scene, out, cfg, TrainConfig, overwrite=overwrite, progress=progress)
+    bool_argument(resume, "train_stage.resume")
     return Trainer(scene, cfg or TrainConfig(), out, progress=progress, on_step=on_step).run(resume=resume, overwrite=overwrite)

@@ -36,6 +36,7 @@ from inpaint360gs.inpaint.inpainters import make_inpainter
 from inpaint360gs.inpaint.config import InpaintConfig, check_inpaint_config  # InpaintConfig: defined with the other settings, importable here
 from inpaint360gs.inpaint.refine import refine
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_image, write_mask
 from inpaint360gs.io.ply import write_ply
@@ -428,7 +429,11 @@ def inpaint_stage(scene: Scene, field_: IdentityField, removed_dir: str | Path, 
     Returns: what ``inpaint.json`` holds.
     Raises: :class:`InputError` for a non-empty ``out``, a removal or distillation of another scene
     (or not linked), or nothing to fill."""
+    check_stage_call("inpaint_stage", scene, out, cfg, InpaintConfig, overwrite=overwrite, progress=progress, folders={"removed_dir": removed_dir})
+    if not isinstance(field_, IdentityField):
+        raise InputError(f"expected an IdentityField (the distillation output), got {type(field_).__name__}", setting="inpaint_stage.field_")
     cfg = cfg or InpaintConfig()
+    check_inpaint_config(cfg)
     t0 = time.perf_counter()
     out = Path(out)
     if out.is_dir() and any(out.iterdir()) and not overwrite:  # before any work (atomic_dir checks again at the end)

@@ -98,7 +98,8 @@ def make(stage: str, scene, inputs: dict[str, str | None], settings: object = No
     None entries are left out) with ``settings`` (any JSON-able value; part of the identity only)."""
     entry = scene_entry(scene) if scene is not None else None
     ins = {k: v for k, v in sorted(inputs.items()) if v is not None}
-    what = [stage, None if entry is None else [entry["content_sha256"], entry["resize"]], ins, settings]
+    # every file the stage read through the scene (images_<R>/, masks), not only the resize-independent content
+    what = [stage, None if entry is None else [scene.read_fingerprint(), entry["resize"]], ins, settings]
     identity = hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()
     return {"stage": stage, "identity": identity, "scene": entry, "inputs": ins}
 

@@ -10,10 +10,12 @@ from typing import Iterable, Union
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.layout import LLFFHOLD, RunLayout
+from inpaint360gs.core.settings import check_value
+from inpaint360gs.io.arguments import path_argument
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.io.scene import load_scene as read_scene
-from inpaint360gs.pipeline.presets import DEFAULT_PRESET, get_preset
-from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner
+from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS, get_preset
+from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner, check_run_arguments
 from inpaint360gs.remove.select import Click
 
 ClickLike = Union[Click, str, tuple]
@@ -66,11 +68,18 @@ def _click(c: ClickLike) -> Click:
         return c
     if isinstance(c, str):
         return Click.parse(c)
-    try:
-        view, x, y = c
-        return Click(str(view), int(x), int(y))
-    except (TypeError, ValueError):
-        raise InputError(f"click {c!r} is not (view, x, y) nor 'VIEW:X,Y'", "clicks") from None
+    if not isinstance(c, (tuple, list)) or len(c) != 3:
+        raise InputError(f"click {c!r:.60} is not (view, x, y) nor 'VIEW:X,Y'", setting="clicks")
+    return Click.make(*c)
+
+
+def _listed(value: object, name: str) -> list:
+    """The items of a list-like argument (a list, tuple or other iterable; not a string, a mapping or one number)."""
+    if value is None:
+        return []
+    if isinstance(value, (str, bytes, dict)) or not isinstance(value, Iterable):
+        raise InputError(f"expected a list, got {type(value).__name__} {value!r:.40}", setting=name)
+    return list(value)
 
 
 def remove_object(
@@ -99,12 +108,21 @@ def remove_object(
     Returns: a :class:`RemovalResult`.
     Raises: :class:`InputError` for a bad scene, click, preset, model, stage or output folder, and when
     a click selects nothing (the stages before the failing one are kept)."""
-    if not isinstance(scene, Scene):
-        scene = load_scene(scene)
+    # the front door: every argument checked before any work (docs/architecture.md, "Reliability")
+    path_argument(out, "out")
+    if not isinstance(preset, (str, RunConfig)):
+        raise InputError(f"expected a preset's name ({', '.join(PRESETS)}) or a RunConfig, got {type(preset).__name__}", setting="preset")
     cfg = preset if isinstance(preset, RunConfig) else get_preset(preset)
     if seed is not None:
+        check_value(seed, int, "seed")
         cfg = replace(cfg, seed=seed)
-    runner = Runner(scene, out, cfg, model=model, clicks=[_click(c) for c in clicks or []], ids=list(ids or []), progress=progress)
+    if not isinstance(until, str) or until not in STAGES:
+        raise InputError(f"unknown stage {until!r:.40} (one of {', '.join(STAGES)})", setting="until")
+    clicks, ids = [_click(c) for c in _listed(clicks, "clicks")], _listed(ids, "ids")
+    check_run_arguments(out, cfg, model=model, clicks=clicks, ids=ids, progress=progress)
+    if not isinstance(scene, Scene):
+        scene = load_scene(path_argument(scene, "scene"))
+    runner = Runner(scene, out, cfg, model=model, clicks=clicks, ids=ids, progress=progress)
     done = dict(runner.run(until))
     seconds = {s: t for s, t in runner.record.get(SECONDS_KEY, {}).items() if s in done}
     return RemovalResult(out=runner.layout.root, stages=done, seconds=seconds, config=cfg)

@@ -16,6 +16,7 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
@@ -23,7 +24,7 @@ from inpaint360gs.io.scene import Scene
 from inpaint360gs.metrics import amcr
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.objects import fill_masks, remove_objects
-from inpaint360gs.remove.select import Click, select, support_heights
+from inpaint360gs.remove.select import Click, check_selection, select, support_heights
 
 
 def load_field(folder: str | Path, scene: Scene) -> IdentityField:
@@ -68,7 +69,11 @@ def remove_stage(
     ``removal.json``.
     Returns: what ``removal.json`` holds.
     Raises: :class:`InputError` for a non-empty ``out`` or a click that selects nothing."""
-    cfg = cfg or RemovalConfig()
+    check_stage_call("remove_stage", scene, out, cfg, RemovalConfig, overwrite=overwrite, progress=progress)
+    if not isinstance(field_, IdentityField):
+        raise InputError(f"expected an IdentityField (load_field), got {type(field_).__name__}", setting="remove_stage.field_")
+    check_selection(clicks, ids)
+    cfg = (cfg or RemovalConfig()).validate()
     check_output_dir(out, overwrite)  # before any work
     t0 = time.perf_counter()
     clicks = list(clicks or [])

@@ -21,6 +21,7 @@ from tqdm import tqdm
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
 from inpaint360gs.io.ply import read_ply
@@ -79,6 +80,7 @@ def segment_stage(
     ``check_model`` refuse a model that does not reproduce the views.
     Raises: :class:`InputError` for a non-empty ``out``, a missing or mismatched model, or a segmenter
     returning an id image of the wrong shape or type."""
+    check_stage_call("segment_stage", scene, out, cfg, Segmenter, overwrite=overwrite, progress=progress, models={} if model is None else {"model": model})
     segmenter = get_segmenter(DEFAULT_SEGMENTER) if cfg is None else cfg
     check_output_dir(out, overwrite)  # before any work
     if isinstance(model, (str, Path)):
@@ -96,6 +98,7 @@ def segment_stage(
         model_psnr = check_model_fits_scene(scene, model, images, model_path or "MODEL") if check_model else None
     else:
         model_psnr = None
+    read_files = segmenter.input_digests(scene)
     t_load = time.perf_counter() - t0
     t0 = time.perf_counter()
     segmenter.prepare(scene, model if segmenter.uses_model else None)
@@ -119,7 +122,8 @@ def segment_stage(
             "settings": segmenter.settings(),
             "prepared": segmenter.summary(),
             "inputs": inputs,
-            provenance.KEY: provenance.make("segment", scene, {"model": model_sha}, {"segmenter": segmenter.name, "settings": segmenter.settings(), "views": [v.name for v in views]}),
+            provenance.KEY: provenance.make("segment", scene, {"model": model_sha}, {"segmenter": segmenter.name, "settings": segmenter.settings(), "views": [v.name for v in views],
+                                                                        "files": read_files}),
             "model_check_psnr": None if model_psnr is None else round(model_psnr, 2),
             "num_views": len(views),
             "views": per_view,
