@@ -60,15 +60,25 @@ def test_a_folder_the_record_does_not_know_is_refused_not_removed(tiny_scene, tm
     with pytest.raises(InputError, match="segment/ was not written by this run"):
         stub_run(tiny_scene, out, model=model, until="associate")
     assert present(out) == list(STAGES[1:])
-    # killed after the stage wrote its folder, before the record said so: the manifest lists it
+    # stopped after the stage wrote its folder, before the record said so: the manifest lists it
     shutil.rmtree(out)
-    with pytest.raises(InputError, match="on purpose"):
-        stub_run(tiny_scene, out, model=model, fail="distill")
-    (out / "distill").mkdir()
+
+    class Stopped(StubRunner):
+        def _distill(self):
+            super()._distill()
+            raise KeyboardInterrupt  # the record is not written after this
+
+    with pytest.raises(KeyboardInterrupt):
+        Stopped(load_scene(tiny_scene[0]), out, RunConfig(), log=[], ids=[1], model=model, progress=False).run()
     record = json.loads((out / "run.json").read_text())
-    assert "distill" in record[CREATED_KEY] and "distill" not in record
+    assert "distill" in record[CREATED_KEY] and "distill" not in record and (out / "distill").is_dir()
     assert stub_run(tiny_scene, out, model=model, until="associate")[1] == []
     assert present(out) == ["segment", "associate"]
+    # a stage refused before it wrote anything leaves the record as it was
+    before = (out / "run.json").read_text()
+    with pytest.raises(InputError, match="on purpose"):
+        stub_run(tiny_scene, out, model=model, fail="distill")
+    assert (out / "run.json").read_text() == before
 
 
 def test_the_3dgs_folder_is_the_trainers_or_holds_the_given_model(tiny_scene, tmp_path):

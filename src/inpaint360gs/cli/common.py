@@ -17,6 +17,7 @@ import argparse
 import importlib
 import math
 import os
+import re
 import signal
 import sys
 import warnings
@@ -69,6 +70,27 @@ def _one_line_warnings(prog: str) -> None:
 def _first_line(e: BaseException) -> str:
     text = str(e).strip()
     return text.splitlines()[0] if text else type(e).__name__
+
+
+# torch's allocators: "DefaultCPUAllocator: can't allocate memory: you tried to allocate 123 bytes",
+# "CUDA out of memory. Tried to allocate 2.00 GiB"; numpy: "Unable to allocate 1.00 TiB for an array"
+_ALLOC_FAILED = re.compile(r"can't allocate memory|out of memory|Unable to allocate", re.I)
+_ALLOC_SIZE = re.compile(r"allocate (\d+) bytes|allocate ([\d.]+ ?[KMGTP]i?B)", re.I)
+
+
+def _out_of_memory(e: BaseException) -> str:
+    """One line for a failed allocation, with the size asked for when the message says it."""
+    m = _ALLOC_SIZE.search(str(e))
+    size = "" if m is None else f" (an allocation of {m.group(2) or _bytes(int(m.group(1)))} failed)"
+    return f"out of memory{size}: try smaller images (--resize), fewer Gaussians, or a machine with more memory"
+
+
+def _bytes(n: int) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if n < 1024 or unit == "TiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.2f} {unit}"
+        n /= 1024
+    return f"{n} B"
 
 
 def _os_error(e: OSError) -> str:
@@ -174,10 +196,13 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
     except OSError as e:  # disk full, permission denied, a path component that is a file, ...
         print(f"{where}: error: {_os_error(e)}", file=sys.stderr)
         return EXIT_INPUT
-    except MemoryError:
-        print(f"{where}: error: out of memory (try smaller images, --resize, or fewer Gaussians)", file=sys.stderr)
+    except MemoryError as e:
+        print(f"{where}: error: {_out_of_memory(e)}", file=sys.stderr)
         return EXIT_INPUT
     except Exception as e:  # a bug: still one line, the traceback on request
+        if isinstance(e, RuntimeError) and _ALLOC_FAILED.search(str(e)):  # torch's allocator (CPU or CUDA): a resource, not a bug
+            print(f"{where}: error: {_out_of_memory(e)}", file=sys.stderr)
+            return EXIT_INPUT
         if os.environ.get("INPAINT360GS_DEBUG"):
             raise
         print(f"{where}: internal error: {type(e).__name__}: {_first_line(e)} (set INPAINT360GS_DEBUG=1 for the traceback)", file=sys.stderr)

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.files import path_problem, sha256_file
+from inpaint360gs.core.files import parse_json, path_problem, sha256_file
 from inpaint360gs.core.layout import RENDER_COLOR_DIR, STAGE_RECORDS
 
 KEY = "provenance"
@@ -122,10 +122,7 @@ def read(path: str | Path, stage: str | None = None) -> Record | None:
     problem = path_problem(path)
     if problem is not None:
         raise InputError(problem, path)
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError(f"not valid JSON ({e})", path) from None
+    data = parse_json(path)
     if not isinstance(data, dict):
         return None  # e.g. an association's objects.json written as a bare list of ids
     prov = data.get(KEY)
