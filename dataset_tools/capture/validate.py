@@ -11,6 +11,7 @@ masks, and every other check applies as usual. Without that statement a scene ne
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -180,13 +181,19 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
 
     # --- containment: every file a stage reads lies inside the scene, links included (the loader's rule)
     outside = []
-    for rel in [f"images/{n}" for n in sorted({im.name for im in rec.images.values()} | set(files))] + [SCENE_JSON]:
+    names = sorted({im.name for im in rec.images.values()} | set(files))
+    rels = [f"images/{n}" for n in names] + [SCENE_JSON, *(f"sparse/0/{p.name}" for p in sorted(sparse.iterdir()))]
+    rels += [f"{d.name}/{n}" for d in sorted(scene.glob("images_*")) for n in names if os.path.lexists(d / n)]
+    rels += [f"{k}/{p.name}" for k in ("unseen_mask", "object_mask") if (scene / k).is_dir() for p in sorted((scene / k).iterdir())]
+    for rel in rels:
+        if rel == SCENE_JSON and not os.path.lexists(scene / rel):
+            continue
         try:
             inside(scene, rel)
         except InputError as e:
             outside.append(f"{rel} ({e.message.split(':')[0]})")
     report.add("inside the scene", "fail" if outside else "pass",
-               f"{len(outside)} outside: {_few(outside, 2)}" if outside else "every registered image resolves inside the scene")
+               f"{len(outside)} outside: {_few(outside, 2)}" if outside else "every file a stage reads resolves inside the scene")
     twins = same_stem({im.name for im in rec.images.values()})
     report.add("distinct stems", "fail" if twins else "pass",
                f"{twins[0]} and {twins[1]} share the stem {Path(twins[0]).stem!r}, which names every per-view output" if twins
@@ -295,5 +302,5 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
             problems = [p for p in (click_problem(c, views) for c in clicks_from_json(info["clicks"], scene / SCENE_JSON)) if p]
         except InputError as e:
             problems = [e.message]
-        report.add("clicks", "fail" if problems else "pass", "; ".join(problems[:2]) if problems else f"{len(info['clicks'])} click(s) on training views, inside their images")
+        report.add("scene.json clicks", "fail" if problems else "pass", "; ".join(problems[:2]) if problems else f"{len(info['clicks'])} click(s) on training views, inside their images")
     return report

@@ -2,6 +2,7 @@
 
 import fnmatch
 import os
+import re
 import shlex
 
 import yaml
@@ -168,7 +169,7 @@ def _ablation_scenes():
 ABLATION_SCENES = _ablation_scenes()
 
 wildcard_constraints:
-    scene="|".join(sorted(set(SCENES + TRAIN_SCENES))),
+    scene="|".join(re.escape(s) for s in sorted(set(SCENES + TRAIN_SCENES))),  # a folder's name is text, not a pattern
     seed=r"\d+",
     segmenter="geometric|oracle|sam",
     association="kom|tracker",

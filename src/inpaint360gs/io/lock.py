@@ -24,11 +24,22 @@ LOCK_NAME = ".lock"
 
 
 def _holder(path: Path) -> str:
-    try:
-        info = json.loads(path.read_text())
-        return f"pid {info['pid']} on {info['host']} since {info['since']}"
-    except (OSError, ValueError, KeyError, TypeError):
-        return "another process"
+    for _ in range(20):  # the holder writes who it is right after it took the lock
+        try:
+            info = json.loads(path.read_text())
+            return f"pid {info['pid']} on {info['host']} since {info['since']}"
+        except (OSError, ValueError, KeyError, TypeError):
+            time.sleep(0.05)
+    return "another process"
+
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove ``folders`` (innermost first) while they are empty."""
+    for p in folders:
+        try:
+            p.rmdir()
+        except OSError:
+            return
 
 
 @contextlib.contextmanager
@@ -37,7 +48,7 @@ def folder_lock(folder: str | Path) -> Iterator[Path]:
     is left empty) for the block; yields the lock file. Raises :class:`InputError` naming the
     folder and the holder when another process holds it."""
     folder = Path(folder)
-    made = not folder.exists()
+    made = [p for p in (folder, *folder.parents) if not p.exists()]  # what the lock creates, innermost first
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / LOCK_NAME
     while True:
@@ -46,9 +57,7 @@ def folder_lock(folder: str | Path) -> Iterator[Path]:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             os.close(fd)
-            if made:
-                with contextlib.suppress(OSError):
-                    folder.rmdir()
+            _remove_empty(made)
             raise InputError(f"another run is writing this folder ({_holder(path)}); wait for it to end, or choose another output", folder) from None
         try:  # the file may have been removed by the holder that just left: lock the one on disk
             same = os.fstat(fd).st_ino == os.stat(path).st_ino
@@ -65,6 +74,4 @@ def folder_lock(folder: str | Path) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             path.unlink()
         os.close(fd)
-        if made:
-            with contextlib.suppress(OSError):
-                folder.rmdir()  # only when empty: nothing was written
+        _remove_empty(made)  # only when empty: nothing was written
