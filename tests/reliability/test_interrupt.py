@@ -68,8 +68,8 @@ def snapshot(folder: Path, out: Path) -> dict[str, object]:
     keys (with ``out``, the command's output path, written as OUT)."""
 
     def stable(v):
-        if isinstance(v, dict):
-            return {k: stable(x) for k, x in v.items() if not VOLATILE.search(k)}
+        if isinstance(v, dict):  # run.json's manifest: which folders, not their inodes
+            return {k: sorted(x) if k == "created" else stable(x) for k, x in v.items() if not VOLATILE.search(k)}
         return [stable(x) for x in v] if isinstance(v, list) else v
 
     got = {}
