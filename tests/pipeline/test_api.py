@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 import inpaint360gs
-from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.errors import CheckFailedError, InputError
 
 SRC = Path(inpaint360gs.__file__).resolve().parents[1]
 
@@ -81,14 +81,19 @@ def test_remove_object_runs_the_stages_and_reports_them(tiny_scene, tmp_path):
     cfg = inpaint360gs.get_preset("cpu")
     cfg = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=20))
     out = tmp_path / "out"
-    res = inpaint360gs.remove_object(str(root), out, ids=[1], preset=cfg, model=model, until="remove")
+    # 20 distillation steps leave part of the blob standing: the run's check fails, accepted here
+    res = inpaint360gs.remove_object(str(root), out, ids=[1], preset=cfg, model=model, until="remove", accept=True)
     assert res.stages == {"train": "given", "segment": "ran", "associate": "ran", "distill": "ran", "remove": "ran"}
     assert set(res.seconds) == {"segment", "associate", "distill", "remove"} and all(t >= 0 for t in res.seconds.values())
     assert (res.removed / "removal.json").is_file() and res.out == out and res.config is cfg
+    assert res.check["stage"] == "remove" and not res.check["passed"] and res.check["accepted"] and "standing_removed" in res.check["failed"]
 
     scene = inpaint360gs.load_scene(root)
-    again = inpaint360gs.remove_object(scene, out, ids=[1], preset=cfg, model=model, until="remove")
+    again = inpaint360gs.remove_object(scene, out, ids=[1], preset=cfg, model=model, until="remove", accept=True)
     assert set(again.stages.values()) == {"given", "up to date"} and again.seconds == res.seconds
+    with pytest.raises(CheckFailedError, match="after remove: standing_removed") as e:  # not accepted: the same result fails
+        inpaint360gs.remove_object(scene, out, ids=[1], preset=cfg, model=model, until="remove")
+    assert e.value.path == out / "check.png" and (out / "removed" / "removal.json").is_file()
 
 
 def test_remove_object_refuses_bad_input_before_any_stage(tiny_scene, tmp_path):
@@ -125,8 +130,10 @@ def test_the_workflow_trains_with_the_cpu_preset(tmp_path):
 @pytest.mark.slow
 def test_the_readme_example_runs(tmp_path, monkeypatch):
     """The README's Python example, as written, on the scene its shell example generates (reduced
-    cone), under the cpu preset shrunk to a CI budget (3DGS 1000 steps, distillation 100, 3D
-    inpainting 50 steps on 4 virtual views): it removes the cone and reports every stage."""
+    cone), under the cpu preset shrunk to a CI budget (3DGS 1000 steps, distillation 400, 3D
+    inpainting 50 steps on 4 virtual views): it removes the cone, reports every stage and passes its
+    own check (with 100 distillation steps the field takes the floor with the cone, and the check
+    refuses that result)."""
     import re
 
     from dataset_tools.cli import main as dataset_main
@@ -139,7 +146,7 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
         cfg = presets.with_budget(cfg, iterations=1000)
         inp = cfg.inpaint
         inp = dataclasses.replace(inp, refine=dataclasses.replace(inp.refine, iterations=50), virtual=dataclasses.replace(inp.virtual, num_views=4))
-        ci[name] = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=100), inpaint=inp)
+        ci[name] = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=400), inpaint=inp)
     monkeypatch.setattr(presets, "PRESETS", ci)
     monkeypatch.chdir(tmp_path)
     assert dataset_main(["synth", "data/synthetic", "--scenes", "cone", "--reduced", "--quiet"]) == 0
@@ -148,3 +155,5 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
     result = namespace["result"]
     assert set(result.stages.values()) == {"ran"} and list(result.stages)[-1] == "inpaint"
     assert (tmp_path / "runs" / "cone" / "inpainted" / "point_cloud.ply").is_file()
+    assert result.check["passed"] and result.check["stage"] == "inpaint", result.check["failed"]
+    assert result.check["checks"][0]["name"] == "selection" and result.check["checks"][0]["value"] == "object"

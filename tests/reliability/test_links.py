@@ -17,7 +17,7 @@ from cli_harness import Case, check, ids_unique, restore_threads, run_cli  # noq
 from reliability.chains import DISTILL, INPAINT, QUIET
 
 T = "inpaint360gs"
-RUN_FLAGS = ["--id", "1", "--distill-iterations", DISTILL[1], *INPAINT, "--no-progress", *QUIET]
+RUN_FLAGS = ["--id", "1", "--distill-iterations", DISTILL[1], *INPAINT, "--no-progress", "--accept", *QUIET]  # --accept: a tiny budget fails the check
 
 
 @pytest.fixture(scope="module")

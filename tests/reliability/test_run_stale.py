@@ -101,7 +101,7 @@ def test_the_3dgs_folder_is_the_trainers_or_holds_the_given_model(tiny_scene, tm
 def test_the_cli_run_with_changed_distillation_and_until_remove(chains, tmp_path, capsys):
     """The case that once kept the old ``inpainted/`` and its hash in run.json."""
     ch = chains["cone"]
-    base = ["run", str(ch.scene), str(tmp_path / "out"), "--model", str(ch.model), "--id", "1", *INPAINT, "--no-progress", "--threads", "2"]
+    base = ["run", str(ch.scene), str(tmp_path / "out"), "--model", str(ch.model), "--id", "1", *INPAINT, "--no-progress", "--threads", "2", "--accept"]
     code, _, err = run_cli("inpaint360gs", [*base, "--distill-iterations", "20"], capsys)
     assert code == 0, err
     first = json.loads((tmp_path / "out" / "run.json").read_text())

@@ -27,7 +27,9 @@ rule build_capture:
 
 
 rule run_capture:
-    """`inpaint360gs run`: every stage from 3DGS to the inpainted scene, at the capture's clicks."""
+    """`inpaint360gs run`: every stage from 3DGS to the inpainted scene, at the capture's clicks.
+    `--accept`: a result that fails the run's own check is kept and reported (check.json beside the
+    scores), not deleted with a failed job."""
     input:
         scene_json=f"{OUT}/captures/{{capture}}/scene/scene.json",
     output:
@@ -49,7 +51,7 @@ rule run_capture:
         f"{OUT}/benchmarks/captures/{{capture}}/run.tsv"
     shell:
         "inpaint360gs run {params.scene:q} {params.out:q} {params.clicks} --resize {params.resize:q} --preset {params.preset:q}"
-        " --backend {params.backend:q} --threads {threads} --no-progress > {log:q} 2>&1"
+        " --backend {params.backend:q} --threads {threads} --no-progress --accept > {log:q} 2>&1"
 
 
 rule capture_scores:
@@ -59,6 +61,7 @@ rule capture_scores:
         run_json=f"{OUT}/captures/{{capture}}/run/run.json",
     output:
         scores=f"{RESULTS}/captures/{{capture}}_scores.json",
+        check=f"{RESULTS}/captures/{{capture}}_check.json",
         figure=report(
             f"{RESULTS}/captures/{{capture}}_removal.jpg",
             caption="../report/capture.rst",
@@ -75,4 +78,4 @@ rule capture_scores:
     shell:
         "inpaint360gs capture-scores {params.scene:q} {params.run:q}/3dgs/point_cloud.ply {params.run:q}/distill {params.run:q}/removed"
         " {output.scores:q} --inpainted {params.run:q}/inpainted --figure {output.figure:q} --resize {params.resize:q}"
-        " --threads {threads} > {log:q} 2>&1"
+        " --threads {threads} > {log:q} 2>&1 && cp {params.run:q}/check.json {output.check:q}"

@@ -25,11 +25,13 @@ from collections.abc import Callable
 from pathlib import Path
 
 from inpaint360gs.core.errors import (
+    EXIT_CHECK,
     EXIT_DIVERGED,
     EXIT_INPUT,
     EXIT_INTERNAL,
     EXIT_SIGINT,
     EXIT_SIGTERM,
+    CheckFailedError,
     InputError,
     Terminated,
     TrainingDivergedError,
@@ -187,6 +189,9 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
     except TrainingDivergedError as e:
         print(f"{where}: training diverged: {e}", file=sys.stderr)
         return EXIT_DIVERGED
+    except CheckFailedError as e:
+        print(f"{where}: check failed: {e}", file=sys.stderr)
+        return EXIT_CHECK
     except KeyboardInterrupt:
         print(f"{where}: interrupted (partial outputs removed; rerun to continue)", file=sys.stderr)
         return EXIT_SIGINT

@@ -7,6 +7,7 @@ without test_ views (photos with the object only) runs the same; its result has 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, add_threads_argument, check_apart, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
 
@@ -35,6 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_inpaint_arguments(parser)
     parser.add_argument("--seed", type=nonneg_int, default=0)
     add_scene_arguments(parser, llffhold=False, resize_note="else images/ shrunk on read; clicks stay in the coordinates of images/")
+    parser.add_argument("--accept", action="store_true", help="keep a result that fails the run's own check (check.json, check.png) and exit 0; default: exit 4 naming the check")
     parser.add_argument("--no-progress", action="store_true")
     add_backend_argument(parser, default=None)
     add_threads_argument(parser)
@@ -66,9 +68,14 @@ def run(args: argparse.Namespace) -> int:
     clicks = [Click.parse(c) for c in args.click]
     scene = load_scene(args.scene, resize=args.resize, load_masks=False)
     cfg = run_config(args)
-    runner = Runner(scene, args.out, cfg, model=args.model, clicks=clicks, ids=args.id, progress=not args.no_progress, announce=True)
+    runner = Runner(scene, args.out, cfg, model=args.model, clicks=clicks, ids=args.id, progress=not args.no_progress, announce=True, accept=args.accept)
     for stage, what in runner.run(args.until):
         print(f"{stage:10s} {what}")
+    if runner.check is not None:
+        from inpaint360gs.pipeline.check import CHECK_JSON, CHECK_PICTURE
+
+        state = "passed" if runner.check.passed else "FAILED (" + ", ".join(c.name for c in runner.check.failed) + "), accepted with --accept"
+        print(f"{'check':10s} {state}: {Path(args.out) / CHECK_JSON}, {Path(args.out) / CHECK_PICTURE}")
     print(f"{scene.name}: done up to {args.until} -> {args.out}")
     if args.until == "inpaint" and not scene.test_views:
         from inpaint360gs.core.layout import NO_GROUND_TRUTH, RunLayout

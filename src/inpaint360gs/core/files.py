@@ -125,7 +125,12 @@ def same_path(a: Path, b: Path) -> bool:
 
 def lies_within(inner: Path, outer: Path) -> bool:
     """``inner`` lies inside the folder ``outer`` (both resolved)."""
-    return any(same_path(p, outer) for p in inner.parents)
+    # a loop, not any(<generator>): a generator left suspended is closed when collected, and a
+    # signal arriving in that close is lost ("Exception ignored in") instead of stopping the command
+    for p in inner.parents:
+        if same_path(p, outer):
+            return True
+    return False
 
 
 def inside(root: str | Path, rel: str | Path, what: str = "the scene") -> Path:

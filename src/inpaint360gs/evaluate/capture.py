@@ -97,7 +97,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
                     img = render(g, v.camera).color.clamp(0, 1).numpy()
                     renders[name][v.name] = img
                     vals.append(psnr_outside(img, scene.load_image(v).numpy(), fps[v.name], grow_px))
-                scores["psnr_outside"].setdefault(split, {})[name] = float(np.nanmean(vals)) if vals else None
+                scores["psnr_outside"].setdefault(split, {})[name] = float(np.nanmean(vals)) if np.isfinite(vals).any() else None  # None: no view has a pixel outside
     for name in models:
         if name == "3dgs":
             continue
@@ -105,12 +105,18 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
         scores["texture"][name] = {
             "laplacian": float(np.nanmean([r.laplacian for r in ratios])) if ratios else None,
             "luminance": float(np.nanmean([r.luminance for r in ratios])) if ratios else None,
+            "ring_laplacian": float(np.nanmean([r.ring_laplacian for r in ratios])) if ratios else None,
             "views": len(ratios),
         }
     means = distilled.means.detach().double().numpy()
     opac = distilled.opacities.detach().double().numpy()
     rm = removed.numpy()
-    fp: Footprint = object_footprint(means[rm], opac[rm], means[~rm], opac[~rm], camera_up([v.camera for v in scene.train_views]))
+    try:
+        fp: Footprint = object_footprint(means[rm], opac[rm], means[~rm], opac[~rm], camera_up([v.camera for v in scene.train_views]))
+    except ValueError as e:  # too few Gaussians, or nothing to stand on: the standing score does not apply
+        scores["object_height"] = None
+        scores["standing_note"] = str(e)
+        return scores, renders
     scores["object_height"] = fp.height
     for name in ("removed", "inpainted"):
         if name in models:
@@ -135,7 +141,10 @@ def format_scores(scores: dict) -> str:
         diff = f"{inp - row['removed']:+8.2f}" if inp is not None else "     n/a"
         inp_s = f"{inp:10.2f}" if inp is not None else "       n/a"
         lines.append(f"  {split:10s} {row['3dgs']:8.2f} {row['removed']:8.2f} {inp_s} {diff}   (target >= -{t['outside_drop_db']})")
-    lines.append(f"Standing in the footprint column (> 10% of the object's height {scores['object_height']:.4g} above the support), opacity-weighted:")
+    if scores["object_height"] is None:
+        lines.append(f"Standing in the footprint column: not scored ({scores.get('standing_note')})")
+    else:
+        lines.append(f"Standing in the footprint column (> 10% of the object's height {scores['object_height']:.4g} above the support), opacity-weighted:")
     for name, s in scores["standing"].items():
         lines.append(f"  {name:10s} {100 * s['share']:6.2f} %  ({s['count']} Gaussians)   (target <= {100 * t['standing']:.0f} %)")
     lines.append("Fill texture at the training cameras, inside the footprint / ring:")

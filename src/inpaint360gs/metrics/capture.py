@@ -47,6 +47,7 @@ def psnr_outside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, g
 class TextureRatios:
     laplacian: float  # mean |Laplacian| inside the hole / in the ring
     luminance: float  # mean luminance inside / in the ring
+    ring_laplacian: float = float("nan")  # mean |Laplacian| in the ring itself (how much texture there is to compare with)
 
 
 def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> TextureRatios | None:
@@ -64,6 +65,7 @@ def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> Te
     return TextureRatios(
         laplacian=float(lap[hole].mean() / ring_lap) if ring_lap > 0 else float("nan"),
         luminance=float(luma[hole].mean() / ring_luma) if ring_luma > 0 else float("nan"),
+        ring_laplacian=float(ring_lap),
     )
 
 

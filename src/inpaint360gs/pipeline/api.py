@@ -41,6 +41,7 @@ class RemovalResult:
     stages: dict[str, str]
     seconds: dict[str, float]
     config: RunConfig = field(repr=False)
+    check: dict | None = None  # the run's check of its result (``check.json``: passed, failed checks, each value and limit)
 
     @property
     def layout(self) -> RunLayout:
@@ -93,6 +94,7 @@ def remove_object(
     until: str = STAGES[-1],
     seed: int | None = None,
     progress: bool = False,
+    accept: bool = False,
 ) -> RemovalResult:
     """Remove the clicked objects from ``scene`` and inpaint what they hid (paper Alg. 1), into ``out``
     (one sub-folder per stage; stages already done with the same inputs and settings are skipped).
@@ -103,11 +105,13 @@ def remove_object(
     to remove besides; ``preset`` ``"cpu"``, ``"gpu"`` or ``"paper"`` (:mod:`.presets`), or a whole
     :class:`RunConfig` (a preset changed with ``dataclasses.replace``); ``model`` a trained 3DGS PLY of
     the scene (skips training); ``until`` the last stage to run (one of :data:`STAGES`); ``seed`` the
-    seed of every stage (None: the preset's, 0);
-    ``progress`` show progress bars.
+    seed of every stage (None: the preset's, 0); ``progress`` show progress bars; ``accept`` keep a
+    result that fails the run's own check.
     Returns: a :class:`RemovalResult`.
     Raises: :class:`InputError` for a bad scene, click, preset, model, stage or output folder, and when
-    a click selects nothing (the stages before the failing one are kept)."""
+    a click selects nothing (the stages before the failing one are kept);
+    :class:`inpaint360gs.core.errors.CheckFailedError` when the result fails the run's own check
+    (``OUT/check.json``, ``OUT/check.png``; the outputs are kept) and ``accept`` is false."""
     # the front door: every argument checked before any work (docs/architecture.md, "Reliability")
     path_argument(out, "out")
     if not isinstance(preset, (str, RunConfig)):
@@ -119,11 +123,12 @@ def remove_object(
     if not isinstance(until, str) or until not in STAGES:
         raise InputError(f"unknown stage {until!r:.40} (one of {', '.join(STAGES)})", setting="until")
     clicks, ids = [_click(c) for c in _listed(clicks, "clicks")], _listed(ids, "ids")
-    check_run_arguments(out, cfg, model=model, clicks=clicks, ids=ids, progress=progress)
+    check_run_arguments(out, cfg, model=model, clicks=clicks, ids=ids, progress=progress, accept=accept)
     if not isinstance(scene, Scene):
         scene = load_scene(path_argument(scene, "scene"))
-    runner = Runner(scene, out, cfg, model=model, clicks=clicks, ids=ids, progress=progress)
+    runner = Runner(scene, out, cfg, model=model, clicks=clicks, ids=ids, progress=progress, accept=accept)
     done = dict(runner.run(until))
     seconds = {s: t for s, t in runner.record.get(SECONDS_KEY, {}).items() if s in done}
-    return RemovalResult(out=runner.layout.root, stages=done, seconds=seconds, config=cfg)
+    check = runner.check.to_json() if runner.check is not None else None
+    return RemovalResult(out=runner.layout.root, stages=done, seconds=seconds, config=cfg, check=check)
 

@@ -12,6 +12,7 @@ from inpaint360gs.core.settings import check_fields
 from inpaint360gs.distill.config import DistillConfig
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.inpaint.config import InpaintConfig, RefineConfig
+from inpaint360gs.pipeline.check import CheckLimits
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.segment.base import DEFAULT_SEGMENTER, SEGMENTERS
 
@@ -41,6 +42,7 @@ class RunConfig:
     inpaint: InpaintConfig = field(default_factory=_inpaint_default)  # virtual views, 2D and 3D inpainting (stage "inpaint")
     seed: int = 0  # the run's seed, every stage's (see the class docstring); part of the segment signature
     backend: str = "auto"  # rasterizer backend of every stage: "auto", "torch", "numba" or "gsplat"
+    check: CheckLimits = field(default_factory=CheckLimits)  # where the run's own check of its result fails it (docs/architecture.md, "A run checks itself")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -65,4 +67,5 @@ class RunConfig:
         self.distill.validate()
         self.removal.validate()
         check_inpaint_config(self.inpaint)
+        self.check.validate()
         return self

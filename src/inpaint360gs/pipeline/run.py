@@ -18,13 +18,14 @@ import os
 import time
 from pathlib import Path
 
-from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.errors import CheckFailedError, InputError
 from inpaint360gs.core.files import check_apart, parse_json, sha256_file
 from inpaint360gs.core.layout import SCENE_JSON, RunLayout
 from inpaint360gs.io.arguments import bool_argument, path_argument, scene_argument
 from inpaint360gs.io.atomic import remove_tree, write_text
 from inpaint360gs.io.lock import LOCK_NAME, folder_lock
 from inpaint360gs.io.scene import Scene
+from inpaint360gs.pipeline.check import CHECK_JSON, CHECK_PICTURE, CHECKED_STAGES, CheckReport, check_run, load_check, write_report
 from inpaint360gs.pipeline.config import RunConfig
 from inpaint360gs.remove.select import Click, check_clicks, check_selection, clicks_from_json
 from inpaint360gs.segment.base import get_segmenter
@@ -46,7 +47,7 @@ def check_run_folder(out: Path) -> None:
     if not out.is_dir():
         return
     layout = RunLayout(out)
-    names = {p.name for p in (layout.gs, layout.segment, layout.associate, layout.distill, layout.removed, layout.inpainted)} | {RUN_JSON, LOCK_NAME}
+    names = {p.name for p in (layout.gs, layout.segment, layout.associate, layout.distill, layout.removed, layout.inpainted)} | {RUN_JSON, LOCK_NAME, CHECK_JSON, CHECK_PICTURE}
     bases = {n.split(".")[0] for n in names}
     for p in sorted(out.iterdir()):
         if p.name not in names and not (p.name.startswith(".") and p.name[1:].split(".")[0] in bases):
@@ -61,7 +62,7 @@ def _settings(obj) -> object:
     return dataclasses.asdict(obj) if dataclasses.is_dataclass(obj) else obj
 
 
-def check_run_arguments(out: object, cfg: object, *, model: object = None, clicks: object = None, ids: object = None, progress: object = True) -> None:
+def check_run_arguments(out: object, cfg: object, *, model: object = None, clicks: object = None, ids: object = None, progress: object = True, accept: object = False) -> None:
     """The types and ranges of a run's arguments but the scene, before any work (:class:`Runner`,
     :func:`inpaint360gs.remove_object`): :class:`InputError` naming the argument."""
     path_argument(out, "out")
@@ -71,6 +72,7 @@ def check_run_arguments(out: object, cfg: object, *, model: object = None, click
         path_argument(model, "model")
     check_selection(clicks, ids)
     bool_argument(progress, "progress")
+    bool_argument(accept, "accept")
 
 
 def no_clicks_reason(scene: Scene) -> str:
@@ -97,6 +99,8 @@ class Runner:
         ids: Object ids to remove besides the clicked ones.
         progress: Show progress bars.
         announce: Print what each stage does before it starts.
+        accept: Finish with the result even when it fails the run's own check (it is still recorded
+            as failed in ``check.json``).
 
     Raises:
         InputError: Any argument of the wrong type or out of range (naming it), a setting out of range
@@ -106,9 +110,9 @@ class Runner:
     """
 
     def __init__(self, scene: Scene, out: str | Path, cfg: RunConfig, *, model: str | Path | None = None, clicks: list[Click] | None = None, ids: list[int] | None = None, progress: bool = True,
-                 announce: bool = False):
+                 announce: bool = False, accept: bool = False):
         scene_argument(scene)
-        check_run_arguments(out, cfg, model=model, clicks=clicks, ids=ids, progress=progress)
+        check_run_arguments(out, cfg, model=model, clicks=clicks, ids=ids, progress=progress, accept=accept)
         cfg.validate()
         self.scene = scene
         self.layout = RunLayout(Path(out))
@@ -126,6 +130,8 @@ class Runner:
         check_run_folder(self.layout.root)
         self.progress = progress
         self.announce = announce  # say on stdout what each stage does before it starts
+        self.accept = accept
+        self.check: CheckReport | None = None  # the last check of the result (after remove / inpaint)
         self.record_path = self.layout.root / RUN_JSON
         self.record = self._read_record()
         self.fingerprint = scene.read_fingerprint()  # every file the stages read through the scene, images_<R>/ too
@@ -210,6 +216,9 @@ class Runner:
                 continue
             self._own(stage)
             stale.append(stage)
+        if any(stage in CHECKED_STAGES for stage in stale):  # the report described what goes now
+            for name in (CHECK_JSON, CHECK_PICTURE):
+                (self.layout.root / name).unlink(missing_ok=True)
         for stage in stale:
             remove_tree(self._folder(stage))
             self.record.pop(stage, None)
@@ -233,9 +242,13 @@ class Runner:
     def run(self, until: str = "inpaint") -> list[tuple[str, str]]:
         """Run the stages up to ``until`` (one of :data:`STAGES`), skipping those up to date.
 
+        After ``remove`` and ``inpaint`` the result is checked (:mod:`.check`: ``check.json``,
+        ``check.png``); a failed check stops the run unless it was made with ``accept``.
+
         Returns: (stage, "ran" | "up to date" | "given") pairs, in order.
-        Raises: :class:`InputError` for an unknown ``until``, and whatever a stage raises (the
-        stages before it stay recorded)."""
+        Raises: :class:`InputError` for an unknown ``until``, :class:`CheckFailedError` when the
+        result fails its check (its outputs are kept), and whatever a stage raises (the stages
+        before it stay recorded)."""
         if not isinstance(until, str) or until not in STAGES:
             raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", setting="until")
         sigs = self.signatures()
@@ -244,12 +257,18 @@ class Runner:
             self.record = self._read_record()  # as the previous holder left it
             self.remove_stale(sigs)
             done = []
-            for stage in STAGES[: STAGES.index(until) + 1]:
+            stages = STAGES[: STAGES.index(until) + 1]
+            for stage in stages:
                 if stage == "train" and self.model_path is not None:
                     done.append((stage, "given"))
                     continue
                 if self.up_to_date(stage, sigs[stage]):
                     done.append((stage, "up to date"))
+                    # a result that failed its check fails again, until accepted; a later checked stage
+                    # that is up to date too holds the whole check (check.json keeps the last one)
+                    later = [s for s in stages[stages.index(stage) + 1 :] if s in CHECKED_STAGES]
+                    if stage in CHECKED_STAGES and not any(self.up_to_date(s, sigs[s]) for s in later):
+                        self._check(stage, sigs[stage])
                     continue
                 before = json.dumps(self.record) if self.record_path.is_file() else None
                 self.record.pop(stage, None)
@@ -272,7 +291,29 @@ class Runner:
                 self.record.setdefault(SECONDS_KEY, {})[stage] = round(time.perf_counter() - t0, 1)
                 self._save()
                 done.append((stage, "ran"))
+                if stage in CHECKED_STAGES:
+                    self._check(stage, sigs[stage])
         return done
+
+    def _check(self, stage: str, signature: str) -> None:
+        """Check the result after ``stage`` (:mod:`.check`; the report of an earlier run of the same
+        outputs and limits is reused); raise when it fails and is not accepted."""
+        self.check = load_check(self.layout, stage, signature, self.cfg.check)
+        if self.check is None:
+            if self.announce:
+                print(f"check: scoring the result after {stage} ...", flush=True)
+            self.check = self._score(stage, signature)
+        elif self.check.accepted != (self.accept and not self.check.passed):  # a reused report, accepted now (or no longer)
+            self.check.accepted = self.accept and not self.check.passed
+            write_report(self.layout, self.check)
+        failed = self.check.failed
+        if failed and not self.accept:
+            more = f" (and {len(failed) - 1} more check(s), see {CHECK_JSON})" if len(failed) > 1 else ""
+            raise CheckFailedError(f"after {stage}: {failed[0].line()}{more}; rerun with --accept to keep this result", self.layout.root / CHECK_PICTURE)
+
+    def _score(self, stage: str, signature: str) -> CheckReport:
+        """Score the outputs after ``stage``, writing ``check.json`` and ``check.png``."""
+        return check_run(self.scene, self.layout, self.model_file, stage, limits=self.cfg.check, signature=signature, accept=self.accept)
 
     def _train(self) -> None:
         from inpaint360gs.gs.trainer import train_stage
