@@ -28,41 +28,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.layout import RunLayout
-from inpaint360gs.core.settings import check_fields
+from inpaint360gs.evaluate.limits import CheckLimits
 from inpaint360gs.io.atomic import write_text
 
-if TYPE_CHECKING:  # torch-free at import: the run config holds CheckLimits
+if TYPE_CHECKING:  # torch-free at import, as the run config is
     from inpaint360gs.io.scene import Scene
+
+__all__ = ["CHECKED_STAGES", "CHECK_JSON", "CHECK_PICTURE", "Check", "CheckLimits", "CheckReport", "check_run", "load_check", "write_report"]
 
 CHECKED_STAGES = ("remove", "inpaint")  # the stages after which a run checks its result
 CHECK_JSON = "check.json"
 CHECK_PICTURE = "check.png"
-
-
-@dataclass(frozen=True)
-class CheckLimits:
-    """Where a run's result stops being acceptable (the README's targets for a capture)."""
-
-    outside_drop_db: float = 0.2  # PSNR outside the grown footprint may drop by at most this (dB)
-    standing: float = 0.02  # opacity-weighted share standing in the footprint column
-    laplacian: tuple[float, float] = (0.7, 1.3)  # fill |Laplacian| over the ring's
-    luminance: float = 0.15  # fill luminance within this of the ring's
-    min_ring_texture: float = 0.004  # a ring whose mean |Laplacian| (luminance in [0, 1]) is below this has no texture to compare with
-    picture_width: int = 320  # width of each view in the picture
-
-    def __post_init__(self) -> None:
-        check_fields(self)
-
-    def validate(self) -> "CheckLimits":
-        """Check the ranges; returns ``self``. Raises :class:`InputError` naming the setting."""
-        lo, hi = self.laplacian
-        for name, ok in (("outside_drop_db", self.outside_drop_db >= 0), ("standing", 0 <= self.standing <= 1), ("laplacian", 0 <= lo <= 1 <= hi),
-                         ("luminance", 0 <= self.luminance <= 1), ("min_ring_texture", self.min_ring_texture >= 0), ("picture_width", self.picture_width >= 16)):  # fmt: skip
-            if not ok:
-                raise InputError(f"out of range: {getattr(self, name)!r}", setting=f"CheckLimits.{name}")
-        return self
 
 
 @dataclass
