@@ -20,7 +20,7 @@ from inpaint360gs.core.support import Footprint, object_footprint
 from inpaint360gs.evaluate.limits import CheckLimits
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.metrics.capture import psnr_outside, standing_share, texture_ratios
+from inpaint360gs.metrics.capture import psnr_outside, standing_mass, standing_share, texture_ratios
 from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import footprint
 
@@ -117,10 +117,11 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
         scores["standing_note"] = str(e)
         return scores, renders
     scores["object_height"] = fp.height
+    before = standing_mass(means, opac, fp)  # the object: what stood in the column before the removal
     for name in ("removed", "inpainted"):
         if name in models:
             m = models[name]
-            share, count = standing_share(m.means.detach().double().numpy(), m.opacities.detach().double().numpy(), fp)
+            share, count = standing_share(m.means.detach().double().numpy(), m.opacities.detach().double().numpy(), fp, reference=before)
             scores["standing"][name] = {"share": share, "count": count}
     return scores, renders
 
@@ -145,7 +146,7 @@ def format_scores(scores: dict, limits: CheckLimits | None = None) -> str:
     if scores["object_height"] is None:
         lines.append(f"Standing in the footprint column: not scored ({scores.get('standing_note')})")
     else:
-        lines.append(f"Standing in the footprint column (> 10% of the object's height {scores['object_height']:.4g} above the support), opacity-weighted:")
+        lines.append(f"Standing in the footprint column (> 10% of the object's height {scores['object_height']:.4g} above the support), opacity-weighted, as a share of what stood there before the removal:")
     for name, s in scores["standing"].items():
         lines.append(f"  {name:10s} {100 * s['share']:6.2f} %  ({s['count']} Gaussians)   (target <= {100 * t['standing']:.0f} %)")
     lines.append("Fill texture at the training cameras, inside the footprint / ring:")

@@ -74,7 +74,7 @@ def plan_removal(field_: IdentityField, scene: Scene, *, clicks: list[Click] | N
     grown = [p.gaussians for p in picked if p.gaussians is not None]
     needs_plane = cfg.protect_support is not None or cfg.support_column is not None or cfg.footprint_margin is not None
     heights, radius, support_note, up = support_heights(field_, scene) if needs_plane else (None, 0.0, "support guard off", None)
-    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up, grown=grown)
+    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up, grown=grown, views=scene.train_views, backend=backend)
     masks = fill_masks(field_.gaussians, res.removed_mask, scene.train_views, cfg.mask_share, backend)
     # ids only: no click to place the selection by; its size, support and backdrop tests still hold
     check = assess_selection(field_, scene, res.removed_mask.numpy(), clicks, heights=heights, radius=radius, masks=masks)
