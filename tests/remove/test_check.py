@@ -106,3 +106,30 @@ def test_ids_only_are_checked_on_the_view_that_shows_the_most_of_them(blobs):
     masks = selection_masks(field, labels == 1, scene)
     (name,) = got.view_share
     assert masks[name].sum() == max(m.sum() for m in masks.values())
+
+
+def test_a_click_on_the_floor_that_the_field_calls_an_object_fails_the_check(blobs, tmp_path):
+    """The undertrained-field case: the floor carries blob 1's id (as the README budget with 100
+    distillation steps gave the floor the cone's), so a click on the floor
+    resolves to it and the removal takes the floor; the plan's check says so, the stage records it."""
+    import json
+
+    import torch
+
+    from inpaint360gs.remove.config import RemovalConfig
+    from inpaint360gs.remove.stage import plan_removal, remove_stage
+
+    scene, model, labels, _ = blobs
+    floor_as_object = labelled_field(model, torch.from_numpy(np.where(labels == 0, 1, labels)), IDS)  # floor -> id 3
+    v = scene.train_views[0]
+    ys, xs = np.nonzero(selection_masks(floor_as_object, labels == 0, scene, views=[v])[v.name])
+    c = Click(v.name, int(xs[len(xs) // 2]), int(ys[len(ys) // 2]))
+    plan = plan_removal(floor_as_object, scene, clicks=[c], cfg=RemovalConfig(footprint_margin=None))
+    assert plan.targets == [3]
+    assert not plan.check.passed and plan.check.verdict in (SUPPORT, BACKDROP), plan.check.reason
+    info = remove_stage(scene, floor_as_object, tmp_path / "rem", clicks=[c], cfg=RemovalConfig(footprint_margin=None))
+    assert info["selection_check"]["passed"] is False
+    assert json.loads((tmp_path / "rem" / "removal.json").read_text())["selection_check"]["verdict"] == plan.check.verdict
+    # the same field, a click on the blob: an object
+    ok = plan_removal(floor_as_object, scene, clicks=[click_on(v, (-0.45, 0.15, 0.22))], cfg=RemovalConfig(footprint_margin=None))
+    assert ok.targets == [7] and ok.check.passed, ok.check.reason
