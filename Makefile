@@ -29,6 +29,7 @@ $(STAMP): pyproject.toml
 
 # The rules call the package's CLIs (inpaint360gs, inpaint360gs-dataset): put the venv on PATH.
 benchmark: $(STAMP)
+	@$(VENV)/bin/python workflow/check_args.py $(SNAKEMAKE_ARGS)
 	PATH="$(abspath $(VENV))/bin:$$PATH" $(VENV)/bin/snakemake --cores $(CORES) --profile workflow/profiles/local $(SNAKEMAKE_ARGS)
 
 # One pytest worker per core (pytest-xdist); the slow end-to-end tests are spread over the workers.

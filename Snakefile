@@ -34,6 +34,29 @@ def _typed(value):
 config.update(_typed(dict(config)))
 
 
+def config_error(message):
+    """A bad setting: one line on stderr (`config: <setting> ...`) and exit status 2, not a traceback."""
+    import sys
+
+    print(f"config: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def _check_schema():
+    """The schema's first complaint, on one line naming the setting (an unknown key, a value out of range)."""
+    import jsonschema
+    import yaml
+
+    with open("workflow/config/config.schema.yaml") as f:
+        schema = yaml.safe_load(f)
+    errors = sorted(jsonschema.Draft202012Validator(schema).iter_errors(dict(config)), key=lambda e: [str(x) for x in e.absolute_path])
+    if errors:
+        e = errors[0]
+        where = ".".join(str(x) for x in e.absolute_path) or "(top level)"
+        config_error(f"{where}: {e.message}")
+
+
+_check_schema()
 validate(config, "workflow/config/config.schema.yaml")
 
 

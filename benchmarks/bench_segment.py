@@ -90,7 +90,7 @@ def main() -> int:
         for sname in args.segmenters:
             with tempfile.TemporaryDirectory() as tmp:
                 t0 = time.perf_counter()
-                info = segment_stage(scene, model, get_segmenter(sname), Path(tmp) / "segment", model_path=ply, progress=False)
+                info = segment_stage(scene, model, Path(tmp) / "segment", get_segmenter(sname), model_path=ply)
                 wall = time.perf_counter() - t0
                 rows = score_scene(scene, Path(tmp) / "segment", args.min_px)
             cam = scene.train_views[0].camera

@@ -22,9 +22,9 @@ import pandas as pd
 from inpaint360gs.pipeline.presets import PRESETS
 
 # The benchmark's training budget for 2 CPU cores: the `cpu` preset (workflow/config/config.yaml's `train` too).
-DEFAULT_ITERATIONS = PRESETS["cpu"].iterations
+DEFAULT_ITERATIONS = PRESETS["cpu"].train.iterations
 DEFAULT_REDUCED_ITERATIONS = 1000
-MAX_GAUSSIANS = PRESETS["cpu"].max_gaussians
+MAX_GAUSSIANS = PRESETS["cpu"].train.densify.max_gaussians
 
 
 def main() -> int:

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import contextlib
 import itertools
+import os
+import shutil
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -183,6 +185,15 @@ def write_working_copy(src: Path, dst: Path, scale: float) -> tuple[int, int]:
     return small.shape[1], small.shape[0]
 
 
+def _link_or_copy(src: Path, dst: Path) -> None:
+    """``dst`` as a hard link to ``src`` (no copy of the bytes), or a copy where links are not possible."""
+    dst.unlink(missing_ok=True)
+    try:
+        os.link(src, dst)
+    except OSError:
+        shutil.copyfile(src, dst)
+
+
 def rescale_reconstruction(rec: pycolmap.Reconstruction, scale: float, width: int, height: int) -> None:
     """Map a reconstruction made on copies shrunk by ``scale`` back to the ``width`` x ``height`` photos.
 
@@ -222,22 +233,28 @@ def run_sfm(
     timings: dict[str, float] = {}
     pycolmap.set_random_seed(cfg.seed)
 
-    # --- working-size copies (SfMConfig.sfm_max_size); the photos stay as they are
+    # --- working copies (SfMConfig.sfm_max_size) under plain names; the photos stay as they are.
+    # COLMAP's pair list is space-separated text: a photo named "IMG 0010.png" would be read as two
+    # names and silently never matched. Every photo is given to COLMAP as <index><suffix> and its
+    # own name is put back in the model.
     t0 = time.perf_counter()
     with Image.open(image_dir / names[0]) as im:
         full_size = im.size
     scale = working_scale(*full_size, cfg.sfm_max_size)
     sfm_size = full_size
-    sfm_dir = image_dir
-    if scale < 1.0:
-        sfm_dir = work_dir / "sfm_images"
-        sfm_dir.mkdir(exist_ok=True)
-        stage = "resize to {}x{}".format(*(round(v * scale) for v in full_size))  # the stage names the working size
-        progress(stage, 0, len(names))
-        for i, name in enumerate(names):
-            sfm_size = write_working_copy(image_dir / name, sfm_dir / name, scale)
-            progress(stage, i + 1, len(names))
-        timings["resize_s"] = time.perf_counter() - t0
+    alias = {n: f"{i:06d}{Path(n).suffix.lower()}" for i, n in enumerate(names)}
+    original = {a: n for n, a in alias.items()}
+    sfm_dir = work_dir / "sfm_images"
+    sfm_dir.mkdir(exist_ok=True)
+    stage = "resize to {}x{}".format(*(round(v * scale) for v in full_size)) if scale < 1.0 else "stage photos"  # the stage names the working size
+    progress(stage, 0, len(names))
+    for i, name in enumerate(names):
+        if scale < 1.0:
+            sfm_size = write_working_copy(image_dir / name, sfm_dir / alias[name], scale)
+        else:
+            _link_or_copy(image_dir / name, sfm_dir / alias[name])
+        progress(stage, i + 1, len(names))
+    timings["resize_s"] = time.perf_counter() - t0
 
     with colmap_log(cfg.verbose):
         # --- features: chunked so that progress can be shown; chunks after the first reuse the camera
@@ -260,7 +277,7 @@ def run_sfm(
             pycolmap.extract_features(
                 db_path,
                 sfm_dir,
-                image_names=names[i : i + chunk],
+                image_names=[alias[n] for n in names[i : i + chunk]],
                 camera_mode=pycolmap.CameraMode.SINGLE,
                 reader_options=reader,
                 extraction_options=extraction,
@@ -301,7 +318,7 @@ def run_sfm(
         pair_file = work_dir / "pairs.txt"
         progress("matching", 0, len(pairs))
         for i in range(0, len(pairs), block):
-            pair_file.write_text("".join(f"{a} {b}\n" for a, b in pairs[i : i + block]))
+            pair_file.write_text("".join(f"{alias[a]} {alias[b]}\n" for a, b in pairs[i : i + block]))
             pairing = pycolmap.ImportedPairingOptions()
             pairing.match_list_path = pair_file
             pycolmap.match_image_pairs(
@@ -340,6 +357,8 @@ def run_sfm(
         raise InputError("COLMAP could not reconstruct the scene (no image pair with enough matches)", image_dir)
     ordered = sorted(models.values(), key=lambda r: r.num_reg_images(), reverse=True)
     best = ordered[0]
+    for image in best.images.values():
+        image.name = original[image.name]
     reg = {best.image(i).name for i in best.reg_image_ids()}
     progress("mapping", len(reg), len(names))
     working_error = float(best.compute_mean_reprojection_error())

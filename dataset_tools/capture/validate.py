@@ -11,7 +11,7 @@ masks, and every other check applies as usual. Without that statement a scene ne
 
 from __future__ import annotations
 
-import json
+import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -21,9 +21,11 @@ from dataset_tools.capture.captures import decode_image, refuse_duplicates
 from dataset_tools.capture.layout import scaled_size
 from dataset_tools.capture.leaks import leaked_point_ids
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.layout import GROUND_TRUTH_KEY, LLFFHOLD, MASK_SUFFIXES, SCENE_JSON, assign_splits, is_image_name
+from inpaint360gs.core.files import inside, parse_json
+from inpaint360gs.core.layout import GROUND_TRUTH_KEY, LLFFHOLD, MASK_SUFFIXES, SCENE_JSON, assign_splits, image_files, is_image_name, same_stem
 from inpaint360gs.io.colmap import PINHOLE_MODELS, read_model
 from inpaint360gs.io.images import find_mask, read_mask
+from inpaint360gs.remove.select import click_problem, clicks_from_json
 
 
 @dataclass
@@ -115,9 +117,9 @@ def _read_scene_json(path: Path) -> tuple[dict | None, str | None]:
     if not path.is_file():
         return None, None
     try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        return None, f"not valid JSON ({e})"
+        data = parse_json(path)
+    except InputError as e:
+        return None, e.message
     if not isinstance(data, dict):
         return None, "is not a JSON object"
     if GROUND_TRUTH_KEY in data and not isinstance(data[GROUND_TRUTH_KEY], bool):
@@ -136,9 +138,9 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
     info, info_problem = _read_scene_json(scene / SCENE_JSON)
     no_ground_truth = info is not None and info.get(GROUND_TRUTH_KEY) is False
 
-    # --- images
+    # --- images (sub-folders too, as the method's loader reads them)
     img_dir = scene / "images"
-    files = sorted(p.name for p in img_dir.iterdir() if is_image_name(p.name)) if img_dir.is_dir() else []
+    files = sorted(image_files(img_dir)) if img_dir.is_dir() else []
     if not files:
         report.add("images", "fail", "images/ missing or holds no image files")
     split = assign_splits(files)
@@ -176,6 +178,28 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
                f"{', '.join(sorted(models))}" + (" has distortion: undistort to PINHOLE first" if bad else ""))
     if rec.num_cameras() > 1:
         report.add("shared camera", "warn", f"{rec.num_cameras()} cameras; the protocol shares one")
+
+    # --- containment: every file a stage reads lies inside the scene, links included (the loader's rule)
+    outside = []
+    names = sorted({im.name for im in rec.images.values()} | set(files))
+    rels = [f"images/{n}" for n in names] + [SCENE_JSON, *(f"sparse/0/{p.name}" for p in sorted(sparse.iterdir()))]
+    rels += [f"{d.name}/{n}" for d in sorted(scene.glob("images_*")) for n in names if os.path.lexists(d / n)]
+    rels += [f"{k}/{p.name}" for k in ("unseen_mask", "object_mask") if (scene / k).is_dir() for p in sorted((scene / k).iterdir())]
+    for rel in rels:
+        if rel == SCENE_JSON and not os.path.lexists(scene / rel):
+            continue
+        try:
+            inside(scene, rel)
+        except InputError as e:
+            outside.append(f"{rel} ({e.message.split(':')[0]})")
+    report.add("inside the scene", "fail" if outside else "pass",
+               f"{len(outside)} outside: {_few(outside, 2)}" if outside else "every file a stage reads resolves inside the scene")
+    twins = same_stem({im.name for im in rec.images.values()})
+    report.add("distinct stems", "fail" if twins else "pass",
+               f"{twins[0]} and {twins[1]} share the stem {Path(twins[0]).stem!r}, which names every per-view output" if twins
+               else "every view has a stem of its own")
+    if outside or twins:
+        return report
 
     # --- registration: every file registered, every registered image has a file, sizes match
     by_name = {im.name: im for im in rec.images.values() if im.has_pose}
@@ -272,4 +296,11 @@ def validate_scene(scene: str | Path, require_unseen_masks: bool = True, decode_
         report.add("scene.json", "warn", "missing (objects, removal targets and provenance unknown)")
     else:
         report.add("scene.json", "pass", "parses" + (f"; {GROUND_TRUTH_KEY}: false" if no_ground_truth else ""))
+    if info is not None and "clicks" in info:  # what `inpaint360gs run` would take without --click (the same rule)
+        views = {n: (rec.camera(im.camera_id).width, rec.camera(im.camera_id).height, split.get(n) == "test") for n, im in by_name.items()}
+        try:
+            problems = [p for p in (click_problem(c, views) for c in clicks_from_json(info["clicks"], scene / SCENE_JSON)) if p]
+        except InputError as e:
+            problems = [e.message]
+        report.add("scene.json clicks", "fail" if problems else "pass", "; ".join(problems[:2]) if problems else f"{len(info['clicks'])} click(s) on training views, inside their images")
     return report

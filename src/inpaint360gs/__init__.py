@@ -2,7 +2,8 @@
 
 The API: :func:`load_scene` reads a scene folder, :func:`remove_object` runs the method on it (the
 same run as ``inpaint360gs run``) and returns a :class:`RemovalResult` (folders, what each stage did,
-stage seconds); :data:`PRESETS` are the settings it runs with (``cpu``, ``gpu``, ``paper``).
+stage seconds); :data:`PRESETS` are the settings it runs with (``cpu``, ``gpu``, ``paper``), each a whole
+:class:`RunConfig` to change with ``dataclasses.replace``.
 Importing the package is cheap: the API's modules load on first use.
 
 >>> import inpaint360gs
@@ -30,7 +31,7 @@ _os.environ.setdefault("MKL_CBWR", "AUTO")
 
 __version__ = "0.1.0"
 
-__all__ = ["PRESETS", "Preset", "RemovalResult", "get_preset", "load_scene", "remove_object", "__version__"]
+__all__ = ["PRESETS", "RemovalResult", "RunConfig", "get_preset", "load_scene", "remove_object", "__version__"]
 
 
 def __getattr__(name: str):
@@ -39,10 +40,14 @@ def __getattr__(name: str):
         from inpaint360gs.pipeline import api
 
         return getattr(api, name)
-    if name in ("PRESETS", "Preset", "get_preset"):
+    if name in ("PRESETS", "get_preset"):
         from inpaint360gs.pipeline import presets
 
         return getattr(presets, name)
+    if name == "RunConfig":
+        from inpaint360gs.pipeline.config import RunConfig
+
+        return RunConfig
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

@@ -276,3 +276,22 @@ def test_working_size_sfm_gives_full_size_cameras_and_the_same_poses(built, tmp_
     agree = pose_accuracy(reconstruction_poses(rec), reconstruction_poses(read_model(full_out / "sparse" / "0")), orbit_radius=None)
     assert agree.matched == reg["registered"] and agree.center_err_max_pct <= 1.0 and agree.rot_err_max_deg <= 0.5, agree
     assert score_build(out, truth).poses.passes(), score_build(out, truth).poses
+
+
+def test_photo_names_with_spaces_and_other_scripts_are_built(built, tmp_path):
+    """COLMAP's pair list is space-separated: a photo named ``IMG 0003.png`` was never matched and
+    was reported only as "not registered". Every photo is kept, under its own name."""
+    truth, cap, _, _ = built
+    one = tmp_path / "one"
+    one.mkdir()
+    renamed = {"IMG_0003.png": "IMG 0003.png", "IMG_0005.png": "IMG_ü0005.png", "IMG_0007.png": "photo (7) ;$x.png"}
+    for p in sorted((cap / "with_objects").glob("IMG_0*.png")):
+        (one / renamed.get(p.name, p.name)).write_bytes(p.read_bytes())
+    out = tmp_path / "scene"
+    report = build_dataset(one, out, BuildConfig(progress=False))
+    n = len(list(one.iterdir()))
+    assert report.registration["registered"] == report.registration["total"] == n, report.registration
+    names = {im.name for im in read_model(out / "sparse" / "0").images.values()}
+    assert set(renamed.values()) <= names and set(renamed.values()) <= {p.name for p in (out / "images").iterdir()}
+    checks = {c.name: c.status for c in validate_scene(out).checks}
+    assert checks["registration"] == checks["inside the scene"] == checks["distinct stems"] == "pass", checks

@@ -66,6 +66,7 @@ NOT_SETTINGS = {
     "overwrite", "no_progress", "threads", "resume", "removal", "allow_unregistered", "click", "id", "model", "until", "preset", "split",
     "white_background", "inception_weights", "inpainted", "figure", "views_capture", "sam_encoder", "sam_decoder",
     "no_protect_support",  # a switch: protect_support 0
+    "accept",  # keep a result that fails the run's check: what to do with a result, not a setting of it
 }  # fmt: skip
 
 

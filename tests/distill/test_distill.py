@@ -131,7 +131,7 @@ def test_cached_render_and_gradients_equal_the_rasterizer(blob_scene):
 @pytest.fixture(scope="module")
 def distilled(blob_scene, tmp_path_factory):
     out = tmp_path_factory.mktemp("run") / "distill"
-    res = distill_stage(load_scene(blob_scene["scene"]), blob_scene["model"], blob_scene["assoc"] / "object_mask", blob_scene["assoc"] / "objects.json", small_cfg(), out)
+    res = distill_stage(load_scene(blob_scene["scene"]), blob_scene["model"], blob_scene["assoc"] / "object_mask", blob_scene["assoc"] / "objects.json", out, small_cfg())
     return res, out
 
 
@@ -178,10 +178,10 @@ def test_same_seed_same_bytes_other_seed_differs(blob_scene, distilled, tmp_path
     _, first = distilled
     scene = load_scene(blob_scene["scene"])
     args = (blob_scene["model"], blob_scene["assoc"] / "object_mask", blob_scene["assoc"] / "objects.json")
-    distill_stage(scene, *args, small_cfg(), tmp_path / "again")
+    distill_stage(scene, *args, tmp_path / "again", small_cfg())
     for name in ("point_cloud.ply", "classifier.json"):
         assert (first / name).read_bytes() == (tmp_path / "again" / name).read_bytes(), name
-    distill_stage(scene, *args, small_cfg(iterations=20, seed=1), tmp_path / "seed1")
+    distill_stage(scene, *args, tmp_path / "seed1", small_cfg(iterations=20, seed=1))
     assert (first / "classifier.json").read_bytes() != (tmp_path / "seed1" / "classifier.json").read_bytes()
 
 
@@ -297,7 +297,7 @@ def test_bad_masks_are_input_errors(blob_scene, tmp_path, spoil, message):
     assoc = _copy_assoc(blob_scene, tmp_path)
     spoil(assoc)
     with pytest.raises(InputError, match=message):
-        distill_stage(load_scene(blob_scene["scene"]), blob_scene["model"], assoc / "object_mask", assoc / "objects.json", small_cfg(iterations=2), tmp_path / "out")
+        distill_stage(load_scene(blob_scene["scene"]), blob_scene["model"], assoc / "object_mask", assoc / "objects.json", tmp_path / "out", small_cfg(iterations=2))
     assert not (tmp_path / "out").exists()
 
 
@@ -306,12 +306,12 @@ def test_model_of_another_scene_is_an_input_error(blob_scene, shift, message):
     g = blob_scene["gaussians"]
     far = Gaussians(**{**g.tensors(), "means": g.means + torch.tensor(shift)})
     with pytest.raises(InputError, match=f"{message}.*is the model from this scene"):
-        distill_stage(load_scene(blob_scene["scene"]), far, blob_scene["assoc"] / "object_mask", list(IDS), small_cfg(iterations=2))
+        distill_stage(load_scene(blob_scene["scene"]), far, blob_scene["assoc"] / "object_mask", list(IDS), None, small_cfg(iterations=2))
 
 
 def test_divergence_raises(blob_scene):
     with pytest.raises(TrainingDivergedError, match="non-finite|loss is"):
-        distill_stage(load_scene(blob_scene["scene"]), blob_scene["model"], blob_scene["assoc"] / "object_mask", list(IDS), small_cfg(iterations=50, features_lr=1e37))
+        distill_stage(load_scene(blob_scene["scene"]), blob_scene["model"], blob_scene["assoc"] / "object_mask", list(IDS), None, small_cfg(iterations=50, features_lr=1e37))
 
 
 def test_cli(blob_scene, tmp_path, capsys):

@@ -26,7 +26,7 @@ def removal(tmp_path_factory):
     write_ply(base / "3dgs" / "point_cloud.ply", model)
     field = labelled_field(model, labels, IDS)
     write_field(base / "distill", field, scene)
-    remove_stage(field, scene, base / "removed", ids=[3])
+    remove_stage(scene, field, base / "removed", ids=[3])
     other, _, _ = sb.blobs_scene(base / "other", n_views=9, n_test=0)
     return base, root, other
 
@@ -51,3 +51,34 @@ def test_another_scenes_removal_is_refused(removal, capsys):
     code, _, err = run_cli("inpaint360gs", ["capture-scores", *argv], capsys)
     assert code == 2 and len(err.strip().splitlines()) == 1 and "another scene" in err
     assert not (base / "x.json").exists()
+
+
+def _scores(psnr: dict, standing: tuple[float, float], lap: float, lum: float) -> dict:
+    return {"psnr_outside": psnr, "standing": {"removed": {"share": standing[0], "count": 1}, "inpainted": {"share": standing[1], "count": 1}},
+            "texture": {"inpainted": {"laplacian": lap, "luminance": lum, "ring_laplacian": 0.1, "views": 3}}}  # fmt: skip
+
+
+def test_several_runs_are_judged_by_their_worst():
+    from inpaint360gs.evaluate.capture import format_worst_case, worst_case
+    from inpaint360gs.evaluate.limits import CheckLimits
+
+    runs = [
+        _scores({"train": {"3dgs": 26.0, "removed": 25.95, "inpainted": 25.9}, "held-out": {"3dgs": 24.0, "removed": 24.0, "inpainted": 24.0}}, (0.0, 0.01), 0.9, 1.02),
+        _scores({"train": {"3dgs": 26.0, "removed": 25.3, "inpainted": 25.2}, "held-out": {"3dgs": 24.0, "removed": 23.9, "inpainted": 23.9}}, (0.079, 0.003), 1.5, 0.88),
+        _scores({"train": {"3dgs": 26.0, "removed": 26.0, "inpainted": 26.1}, "held-out": {"3dgs": 24.0, "removed": 24.1, "inpainted": 24.1}}, (0.0, 0.0), 0.5, 1.1),
+    ]  # fmt: skip
+    s = worst_case(runs)
+    d = s["drop_removed_train"]
+    assert d["values"] == pytest.approx([0.05, 0.7, 0.0]) and d["worst"] == pytest.approx(0.7) and d["median"] == pytest.approx(0.05)
+    assert not d["passed"] and s["drop_removed_held-out"]["passed"]
+    assert s["drop_inpainted_train"]["worst"] == pytest.approx(0.1) and s["drop_inpainted_train"]["passed"]
+    assert s["standing_removed"]["worst"] == pytest.approx(0.079) and not s["standing_removed"]["passed"]
+    assert s["standing_inpainted"]["worst"] == pytest.approx(0.01) and s["standing_inpainted"]["passed"]
+    assert s["fill_laplacian"]["worst"] == pytest.approx(0.5) and not s["fill_laplacian"]["passed"]  # |log 0.5| > |log 1.5|
+    assert s["fill_luminance"]["worst"] == pytest.approx(0.88) and s["fill_luminance"]["passed"]
+    assert worst_case(runs, CheckLimits(laplacian=(0.4, 1.6)))["fill_laplacian"]["passed"]
+    text = format_worst_case(s, 3)
+    assert "Over 3 runs" in text and text.count("FAILED") == 3
+    # a score no run has is not scored, not a pass
+    none = worst_case([{"psnr_outside": {}, "standing": {}, "texture": {}}])
+    assert all(r["passed"] is None and r["worst"] is None for r in none.values())

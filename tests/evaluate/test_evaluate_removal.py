@@ -49,7 +49,7 @@ def removed(make_blobs_scene):
     field = labelled_field(model, labels, IDS)
     out = root.parent / "removed"
     cfg = RemovalConfig(hull=False, protect_support=None, support_column=None, footprint_margin=None)
-    remove_stage(field, scene, out, ids=[3], cfg=cfg)
+    remove_stage(scene, field, out, ids=[3], cfg=cfg)
     return scene, field.gaussians, labels, out
 
 
@@ -186,7 +186,7 @@ def _removal(root, model, labels, ids, out, classes=None):
     """Remove the Gaussians of the classes of ``ids`` (classes: :func:`_classes` of ``model``, or given)."""
     scene = load_scene(root)
     classes = _classes(model, labels) if classes is None else classes
-    remove_stage(labelled_field(model, classes, CLASSES), scene, out, ids=ids, cfg=NO_EXTRAS, overwrite=True)
+    remove_stage(scene, labelled_field(model, classes, CLASSES), out, ids=ids, cfg=NO_EXTRAS, overwrite=True)
     return scene
 
 

@@ -70,10 +70,10 @@ def test_scores_against_the_generators_truth(tmp_path, name, size, posed_by):
     if posed_by == "pycolmap":  # the reconstruction's own units: the scale comes back from the camera centres
         frame = json.loads((root / "gt" / "colmap_frame.json").read_text())["true_from_colmap"]
         assert scale_to_truth(scene, true_poses(root)) == pytest.approx(frame["scale"], rel=1e-3) and abs(np.log(frame["scale"])) > 0.1
-    remove_stage(field, scene, tmp_path / "exact", ids=[3, 7], cfg=NO_EXTRAS)
+    remove_stage(scene, field, tmp_path / "exact", ids=[3, 7], cfg=NO_EXTRAS)
     exact = removal_scores(tmp_path / "exact", scene)["scores"]
     assert exact["residual"] <= 1.0 and exact["collateral"] <= 1.0, exact
     assert 0.8 < exact["amcr_ratio"] < 1.3 and exact["gt_footprint_share"] > 1.0, exact
-    remove_stage(field, scene, tmp_path / "half", ids=[3], cfg=NO_EXTRAS)
+    remove_stage(scene, field, tmp_path / "half", ids=[3], cfg=NO_EXTRAS)
     half = removal_scores(tmp_path / "half", scene)
     assert half["scores"]["residual"] > 20.0 and "residual" in [a["limit"] for a in half["above_limits"]], half["scores"]

@@ -70,7 +70,7 @@ def test_training_learns_and_writes_outputs(tiny_scene, tmp_path):
     scene = load_scene(tiny_scene)
     cfg = small_config(200)
     before = evaluate_views(init_gaussians(scene, cfg), scene, scene.holdout_views)
-    res = train_stage(scene, cfg, tmp_path / "run")
+    res = train_stage(scene, tmp_path / "run", cfg)
     log = pd.read_csv(tmp_path / "run" / "train_log.csv")
     assert log["loss"].iloc[-1] < 0.5 * log["loss"].iloc[0]
     assert res.metrics["psnr"] > before["psnr"] + 6.0, (before["psnr"], res.metrics["psnr"])
@@ -87,13 +87,13 @@ def test_training_learns_and_writes_outputs(tiny_scene, tmp_path):
     assert TrainConfig.from_dict(conf["config"]) == cfg
     # a second run into the same folder without --resume is refused
     with pytest.raises(InputError, match="--resume"):
-        train_stage(scene, cfg, tmp_path / "run")
+        train_stage(scene, tmp_path / "run", cfg)
 
 
 def test_resume_continues_bit_for_bit(tiny_scene, tmp_path):
     scene = load_scene(tiny_scene)
     cfg = small_config(70, checkpoint_every=25, random_background=True, reset=30)  # crosses densification + resets
-    full = train_stage(scene, cfg, tmp_path / "full")
+    full = train_stage(scene, tmp_path / "full", cfg)
 
     class Stop(Exception):
         pass
@@ -103,16 +103,16 @@ def test_resume_continues_bit_for_bit(tiny_scene, tmp_path):
             raise Stop
 
     with pytest.raises(Stop):
-        train_stage(scene, cfg, tmp_path / "cut", on_step=stop_at)
+        train_stage(scene, tmp_path / "cut", cfg, on_step=stop_at)
     assert load_checkpoint(tmp_path / "cut" / "checkpoint.pt")["loop"]["step"] == 25
-    resumed = train_stage(scene, cfg, tmp_path / "cut", resume=True)
+    resumed = train_stage(scene, tmp_path / "cut", cfg, resume=True)
     for k in ("means", "log_scales", "quats", "opacity_logits", "sh0", "shN"):
         assert torch.equal(getattr(full.gaussians, k), getattr(resumed.gaussians, k)), k
     a = pd.read_csv(tmp_path / "full" / "train_log.csv").drop(columns="elapsed_s")
     b = pd.read_csv(tmp_path / "cut" / "train_log.csv").drop(columns="elapsed_s")
     pd.testing.assert_frame_equal(a, b)
     with pytest.raises(InputError, match="config.seed"):
-        train_stage(scene, small_config(70, checkpoint_every=25, random_background=True, reset=30, seed=5), tmp_path / "cut", resume=True)
+        train_stage(scene, tmp_path / "cut", small_config(70, checkpoint_every=25, random_background=True, reset=30, seed=5), resume=True)
 
 
 def test_nan_in_parameters_stops_with_the_step_and_tensor(tiny_scene, tmp_path):
@@ -124,7 +124,7 @@ def test_nan_in_parameters_stops_with_the_step_and_tensor(tiny_scene, tmp_path):
                 params["log_scales"][3, 1] = float("nan")
 
     with pytest.raises(TrainingDivergedError, match="step 12: parameter 'log_scales'"):
-        train_stage(scene, small_config(30, checkpoint_every=5), tmp_path / "run", on_step=poison)
+        train_stage(scene, tmp_path / "run", small_config(30, checkpoint_every=5), on_step=poison)
     ck = load_checkpoint(tmp_path / "run" / "checkpoint.pt")
     assert ck["loop"]["step"] == 10 and all(torch.isfinite(v).all() for v in ck["loop"]["params"].values())
     assert not (tmp_path / "run" / "point_cloud.ply").exists()
@@ -144,7 +144,7 @@ def test_nan_loss_stops_training(tiny_scene, tmp_path, monkeypatch):
 
     monkeypatch.setattr(api, "render", bad_render)
     with pytest.raises(TrainingDivergedError, match="step 3: loss is nan"):
-        train_stage(load_scene(tiny_scene), small_config(10), tmp_path / "run")
+        train_stage(load_scene(tiny_scene), tmp_path / "run", small_config(10))
 
 
 def test_cli_train_and_render(tiny_scene, tmp_path, monkeypatch, capsys):

@@ -75,7 +75,7 @@ def test_3dgs_repeats_bit_for_bit_and_matches_the_reference(tmp_path, backend):
     cfg = TrainConfig(iterations=n, sh_degree_interval=40, means_lr_max_steps=n, densify=dens, log_every=10, checkpoint_every=0, backend=backend)
     digests = []
     for run in ("run1", "run2"):
-        res = train_stage(scene, cfg, tmp_path / run)
+        res = train_stage(scene, tmp_path / run, cfg)
         digests.append(hashlib.sha256((tmp_path / run / "point_cloud.ply").read_bytes()).hexdigest())
     assert digests[0] == digests[1]
     count, psnr = REFERENCE[backend]

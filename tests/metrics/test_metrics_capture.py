@@ -81,3 +81,21 @@ def test_standing_share_counts_what_stands_in_the_column():
     assert count == 10 and share == pytest.approx(5.0 / (inside_floor + 5.0))
     outside = left + np.array([0.6, 0.0, 0.0])  # beside the footprint: not counted
     assert standing_share(np.concatenate([floor, outside]), np.ones(len(floor) + 10), fp) == (0.0, 0)
+
+
+def test_standing_share_of_the_object_is_not_inflated_by_an_emptied_column():
+    from inpaint360gs.metrics.capture import standing_mass
+
+    rng = np.random.default_rng(4)
+    floor, obj, left = _floor_and_box(rng, 10)
+    fp = object_footprint(obj, np.ones(len(obj)), floor, np.ones(len(floor)), np.array([0.0, 0.0, 1.0]))
+    before = standing_mass(np.concatenate([floor, obj]), np.ones(len(floor) + len(obj)), fp)
+    standing_obj = int((fp.inside(obj) & (fp.heights(obj) > 0.1 * fp.height)).sum())
+    assert before == pytest.approx(standing_obj)  # the floor lies on the plane: only the object stands
+    # the removal took the object and the floor under it; 10 faint Gaussians (opacity 0.5) stand on
+    kept = np.concatenate([floor[~fp.inside(floor)], left])
+    op = np.r_[np.ones(len(kept) - len(left)), np.full(len(left), 0.5)]
+    assert standing_share(kept, op, fp)[0] == pytest.approx(1.0)  # of the column: all of it
+    share, count = standing_share(kept, op, fp, reference=before)
+    assert count == 10 and share == pytest.approx(5.0 / standing_obj)  # of the object: a few per cent
+    assert standing_share(kept, op, fp, reference=0.0) == (0.0, 0)

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 import inpaint360gs
-from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.errors import CheckFailedError, InputError
 
 SRC = Path(inpaint360gs.__file__).resolve().parents[1]
 
@@ -47,30 +47,53 @@ def test_the_cli_default_is_the_cpu_preset_and_options_override_it(tiny_scene, t
     parser = argparse.ArgumentParser()
     add_arguments(parser)
     cpu = inpaint360gs.PRESETS["cpu"]
-    assert run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o")])) == cpu.run_config()
+    assert run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o")])) == cpu
     gpu = run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o"), "--preset", "gpu", "--seed", "3"]))
-    assert gpu == inpaint360gs.PRESETS["gpu"].run_config(seed=3)
+    assert gpu == dataclasses.replace(inpaint360gs.PRESETS["gpu"], seed=3)
     assert (gpu.train.iterations, gpu.train.schedule_scale, gpu.train.densify.max_gaussians, gpu.backend) == (30000, 1.0, 0, "gsplat")
     mine = run_config(parser.parse_args([str(tiny_scene[0]), str(tmp_path / "o"), "--preset", "gpu", "--iterations", "600", "--backend", "torch"]))
     assert (mine.train.iterations, mine.train.schedule_scale, mine.distill.backend, mine.inpaint.refine.backend) == (600, 0.02, "torch", "torch")
-    assert (cpu.iterations, cpu.max_gaussians) == (3000, 120_000)
+    assert (cpu.train.iterations, cpu.train.densify.max_gaussians) == (3000, 120_000)
     with pytest.raises(InputError, match="unknown preset"):
         inpaint360gs.get_preset("fast")
 
 
+def test_presets_are_whole_configs_changed_with_replace():
+    """A preset is a RunConfig; ``dataclasses.replace`` of its seed or backend reaches every stage,
+    ``get_preset`` gives a copy (changing it leaves the preset as it was), and a wrong type is
+    refused on construction naming the setting."""
+    cpu = inpaint360gs.get_preset("cpu")
+    assert isinstance(cpu, inpaint360gs.RunConfig) and cpu == inpaint360gs.PRESETS["cpu"] and cpu is not inpaint360gs.PRESETS["cpu"]
+    mine = dataclasses.replace(cpu, seed=7, backend="torch")
+    assert (mine.train.seed, mine.distill.seed, mine.inpaint.refine.seed) == (7, 7, 7)
+    assert {mine.train.backend, mine.distill.backend, mine.inpaint.backend, mine.inpaint.refine.backend} == {"torch"}
+    cpu.removal.threshold = 0.9
+    assert inpaint360gs.PRESETS["cpu"].removal.threshold == 0.7
+    for bad, setting in ((dict(seed=-1), "RunConfig.seed"), (dict(seed="1"), "RunConfig.seed"), (dict(backend="opengl"), "RunConfig.backend"),
+                         (dict(train="fast"), "RunConfig.train")):  # fmt: skip
+        with pytest.raises(InputError) as e:
+            dataclasses.replace(cpu, **bad)
+        assert e.value.setting == setting
+
+
 def test_remove_object_runs_the_stages_and_reports_them(tiny_scene, tmp_path):
     root, model = tiny_scene
-    cfg = inpaint360gs.get_preset("cpu").run_config()
+    cfg = inpaint360gs.get_preset("cpu")
     cfg = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=20))
     out = tmp_path / "out"
-    res = inpaint360gs.remove_object(str(root), out, ids=[1], preset=cfg, model=model, until="remove")
+    # 20 distillation steps leave part of the blob standing: the run's check fails, accepted here
+    res = inpaint360gs.remove_object(str(root), out, ids=[1], preset=cfg, model=model, until="remove", accept=True)
     assert res.stages == {"train": "given", "segment": "ran", "associate": "ran", "distill": "ran", "remove": "ran"}
     assert set(res.seconds) == {"segment", "associate", "distill", "remove"} and all(t >= 0 for t in res.seconds.values())
     assert (res.removed / "removal.json").is_file() and res.out == out and res.config is cfg
+    assert res.check["stage"] == "remove" and not res.check["passed"] and res.check["accepted"] and "standing_removed" in res.check["failed"]
 
     scene = inpaint360gs.load_scene(root)
-    again = inpaint360gs.remove_object(scene, out, ids=[1], preset=cfg, model=model, until="remove")
+    again = inpaint360gs.remove_object(scene, out, ids=[1], preset=cfg, model=model, until="remove", accept=True)
     assert set(again.stages.values()) == {"given", "up to date"} and again.seconds == res.seconds
+    with pytest.raises(CheckFailedError, match="after remove: standing_removed") as e:  # not accepted: the same result fails
+        inpaint360gs.remove_object(scene, out, ids=[1], preset=cfg, model=model, until="remove")
+    assert e.value.path == out / "check.png" and (out / "removed" / "removal.json").is_file()
 
 
 def test_remove_object_refuses_bad_input_before_any_stage(tiny_scene, tmp_path):
@@ -100,15 +123,17 @@ def test_the_workflow_trains_with_the_cpu_preset(tmp_path):
         assert out.returncode == 0, out.stderr[-2000:]
         return next(line for line in out.stdout.splitlines() if "inpaint360gs train " in line)
 
-    assert f"--iterations {cpu.iterations} --schedule-scale auto --max-gaussians {cpu.max_gaussians} --backend {cpu.backend} " in planned()
+    assert f"--iterations {cpu.train.iterations} --schedule-scale auto --max-gaussians {cpu.train.densify.max_gaussians} --backend {cpu.backend} " in planned()
     assert "--iterations 500 --schedule-scale auto --max-gaussians 0 --backend torch " in planned("train={preset: gpu, iterations: 500, schedule_scale: auto, backend: torch}")
 
 
 @pytest.mark.slow
 def test_the_readme_example_runs(tmp_path, monkeypatch):
     """The README's Python example, as written, on the scene its shell example generates (reduced
-    cone), under the cpu preset shrunk to a CI budget (3DGS 1000 steps, distillation 100, 3D
-    inpainting 50 steps on 4 virtual views): it removes the cone and reports every stage."""
+    cone), under the cpu preset shrunk to a CI budget (3DGS 1000 steps, distillation 400, 3D
+    inpainting 50 steps on 4 virtual views): it removes the cone, reports every stage and passes its
+    own check (with 100 distillation steps the field takes the floor with the cone, and the check
+    refuses that result)."""
     import re
 
     from dataset_tools.cli import main as dataset_main
@@ -116,15 +141,13 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
 
     readme = (SRC.parent / "README.md").read_text()
     code = re.search(r"```python\n(.*?)```", readme, re.S).group(1)
-    full = presets.Preset.run_config
-
-    def ci_budget(self, **kw):
-        cfg = full(self, **{**kw, "iterations": 1000, "distill_iterations": 100})
+    ci = {}
+    for name, cfg in presets.PRESETS.items():
+        cfg = presets.with_budget(cfg, iterations=1000)
         inp = cfg.inpaint
         inp = dataclasses.replace(inp, refine=dataclasses.replace(inp.refine, iterations=50), virtual=dataclasses.replace(inp.virtual, num_views=4))
-        return dataclasses.replace(cfg, inpaint=inp)
-
-    monkeypatch.setattr(presets.Preset, "run_config", ci_budget)
+        ci[name] = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=400), inpaint=inp)
+    monkeypatch.setattr(presets, "PRESETS", ci)
     monkeypatch.chdir(tmp_path)
     assert dataset_main(["synth", "data/synthetic", "--scenes", "cone", "--reduced", "--quiet"]) == 0
     namespace = {}
@@ -132,3 +155,5 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
     result = namespace["result"]
     assert set(result.stages.values()) == {"ran"} and list(result.stages)[-1] == "inpaint"
     assert (tmp_path / "runs" / "cone" / "inpainted" / "point_cloud.ply").is_file()
+    assert result.check["passed"] and result.check["stage"] == "inpaint", result.check["failed"]
+    assert result.check["checks"][0]["name"] == "selection" and result.check["checks"][0]["value"] == "object"

@@ -20,12 +20,13 @@ from cli_harness import restore_threads  # noqa: F401  (the CLI run sets torch's
 from scene_builder import blobs_model, write_png
 
 from inpaint360gs.cli import main
-from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.errors import CheckFailedError, InputError
 from inpaint360gs.distill.config import DistillConfig
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner
+from inpaint360gs.pipeline.check import CHECK_JSON, CHECK_PICTURE, Check, CheckLimits, CheckReport
+from inpaint360gs.pipeline.run import CREATED_KEY, SECONDS_KEY, STAGES, RunConfig, Runner
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.select import Click
 from inpaint360gs.associate.config import AssociationConfig
@@ -37,9 +38,21 @@ VIEW = "IMG_001.png"
 class StubRunner(Runner):
     """Stages that write only the file the runner checks, and log that they ran."""
 
-    def __init__(self, *a, log: list, fail: str | None = None, **kw):
+    def __init__(self, *a, log: list, fail: str | None = None, failing_checks: tuple[str, ...] = (), scored: list | None = None, **kw):
         super().__init__(*a, **kw)
         self.log, self.fail = log, fail
+        self.failing_checks, self.scored = failing_checks, scored if scored is not None else []
+
+    def _score(self, stage: str, signature: str) -> CheckReport:
+        """A report whose one check fails after the stages in ``failing_checks``, written where the
+        real one goes; ``scored`` logs each scoring (a reused report is not scored again)."""
+        self.scored.append(stage)
+        ok = stage not in self.failing_checks
+        report = CheckReport(stage, [Check("selection", ok, "object" if ok else "backdrop", "object", "stub verdict")], self.accept and not ok,
+                             signature=signature, limits=json.loads(json.dumps(dataclasses.asdict(self.cfg.check))))  # fmt: skip
+        (self.layout.root / CHECK_PICTURE).write_bytes(b"picture")
+        (self.layout.root / CHECK_JSON).write_text(json.dumps(report.to_json()))
+        return report
 
     def _stage(self, name: str, path: Path) -> None:
         if name == self.fail:
@@ -58,7 +71,8 @@ class StubRunner(Runner):
         self._stage("associate", self.layout.associate / "objects.json")
 
     def _distill(self):
-        self._stage("distill", self.layout.distill / "classifier.json")
+        self._stage("distill", self.layout.distill / "classifier.json")  # a classifier of objects 1 and 2 (the runner reads their ids)
+        (self.layout.distill / "classifier.json").write_text(json.dumps({"weight": [[0.0]] * 3, "bias": [0.0] * 3, "object_ids": [0, 1, 2]}))
 
     def _remove(self):
         self._stage("remove", self.layout.removed / "removal.json")
@@ -83,7 +97,7 @@ def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_st
     assert done == [("train", "given"), *((s, "ran") for s in STAGES[1:])]
     assert ran == list(STAGES[1:])
     record = json.loads((out / "run.json").read_text())
-    assert set(record) == set(STAGES[1:]) | {SECONDS_KEY}
+    assert set(record) == set(STAGES[1:]) | {SECONDS_KEY, CREATED_KEY} and set(record[CREATED_KEY]) == set(STAGES[1:])
     assert set(record[SECONDS_KEY]) == set(STAGES[1:]) and all(t >= 0 for t in record[SECONDS_KEY].values())  # wall time of each stage that ran
 
     done, ran = stub_run(tiny_scene, out, cfg, model=model)  # nothing changed
@@ -93,7 +107,7 @@ def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_st
         (lambda c: dataclasses.replace(c, distill=DistillConfig(iterations=6)), ["distill", "remove", "inpaint"]),
         (lambda c: dataclasses.replace(c, removal=RemovalConfig(threshold=0.8)), ["remove", "inpaint"]),
         (lambda c: dataclasses.replace(c, association=AssociationConfig(sigma=0.3)), ["associate", "distill", "remove", "inpaint"]),
-        (lambda c: dataclasses.replace(c, segmenter_options={"config": "x"}), ["segment", "associate", "distill", "remove", "inpaint"]),
+        (lambda c: dataclasses.replace(c, segmenter_options={"backend": "torch"}), ["segment", "associate", "distill", "remove", "inpaint"]),
         (lambda c: dataclasses.replace(c, seed=1), ["segment", "associate", "distill", "remove", "inpaint"]),
     ]
     for change, want in cases:
@@ -104,6 +118,43 @@ def test_up_to_date_stages_are_skipped_and_a_settings_change_reruns_from_that_st
     assert stub_run(tiny_scene, out, cfg, model=model, ids=[2])[1] == ["remove", "inpaint"]
     assert stub_run(tiny_scene, out, cfg, model=model, clicks=[Click(VIEW, 5, 5)])[1] == ["remove", "inpaint"]
     assert stub_run(tiny_scene, out, cfg, model=model, clicks=[Click(VIEW, 5, 5)])[1] == []
+
+
+def test_a_failed_check_stops_the_run_until_accepted_and_is_not_scored_twice(tiny_scene, tmp_path):
+    out, model = tmp_path / "out", tiny_scene[1]
+    scored: list = []
+    with pytest.raises(CheckFailedError, match="after remove: selection: stub verdict; rerun with --accept") as e:
+        stub_run(tiny_scene, out, model=model, failing_checks=("remove",), scored=scored)
+    assert e.value.path == out / CHECK_PICTURE  # the message names the picture
+    assert scored == ["remove"] and not (out / "inpainted").exists()  # the long stage never started
+    assert json.loads((out / CHECK_JSON).read_text())["failed"] == ["selection"]
+    # the same outputs fail again, from the report already written (not scored again)
+    with pytest.raises(CheckFailedError):
+        stub_run(tiny_scene, out, model=model, failing_checks=("remove",), scored=scored)
+    assert scored == ["remove"]
+    # other limits: scored again
+    cfg = RunConfig(check=CheckLimits(standing=0.05))
+    with pytest.raises(CheckFailedError):
+        stub_run(tiny_scene, out, cfg, model=model, failing_checks=("remove",), scored=scored)
+    assert scored == ["remove", "remove"]
+    # accepted: the run goes on, the report says it was accepted, the inpainting is checked too
+    done, ran = stub_run(tiny_scene, out, cfg, model=model, failing_checks=("remove", "inpaint"), scored=scored, accept=True)
+    assert ran == ["inpaint"] and done[-1] == ("inpaint", "ran") and scored[-2:] == ["remove", "inpaint"]
+    report = json.loads((out / CHECK_JSON).read_text())
+    assert report["stage"] == "inpaint" and not report["passed"] and report["accepted"]
+    # the same, accepted again: nothing reruns or is scored; without accept it fails again
+    assert stub_run(tiny_scene, out, cfg, model=model, failing_checks=("inpaint",), scored=scored, accept=True)[1] == []
+    assert scored == ["remove", "remove", "inpaint"]
+    with pytest.raises(CheckFailedError, match="after inpaint"):
+        stub_run(tiny_scene, out, cfg, model=model, scored=scored)
+    assert not json.loads((out / CHECK_JSON).read_text())["accepted"] and len(scored) == 3
+    # a passing result after a change of the inpainting
+    cfg = dataclasses.replace(cfg, inpaint=dataclasses.replace(cfg.inpaint, occluder_min_pixels=11))
+    assert stub_run(tiny_scene, out, cfg, model=model, scored=scored)[1] == ["inpaint"]
+    report = json.loads((out / CHECK_JSON).read_text())
+    assert report["stage"] == "inpaint" and report["passed"] and not report["accepted"]
+    with pytest.raises(InputError, match="accept"):
+        stub_run(tiny_scene, out, model=model, accept="yes")
 
 
 def test_training_settings_and_given_models(tiny_scene, tmp_path):
@@ -139,9 +190,15 @@ def test_a_lost_output_or_record_reruns_what_it_must(tiny_scene, tmp_path):
     (out / "associate" / "objects.json").unlink()
     # the lost stage runs again; its signature is unchanged, so what follows stays up to date
     assert stub_run(tiny_scene, out, model=model)[1] == ["associate"]
-    (out / "run.json").write_text("{not json")
-    assert stub_run(tiny_scene, out, model=model)[1] == list(STAGES[1:])
-    (out / "run.json").write_text("[1, 2]")
+    # a record that cannot be read proves no folder the run's own: nothing is removed, the first named
+    for bad in ("{not json", "[1, 2]"):
+        (out / "run.json").write_text(bad)
+        before = sorted(p.relative_to(out) for p in out.rglob("*"))
+        with pytest.raises(InputError, match="segment/ was not written by this run"):
+            stub_run(tiny_scene, out, model=model)
+        assert sorted(p.relative_to(out) for p in out.rglob("*")) == before
+    for stage in ("segment", "associate", "distill", "removed", "inpainted"):
+        shutil.rmtree(out / stage)
     assert stub_run(tiny_scene, out, model=model)[1] == list(STAGES[1:])
 
 
@@ -168,7 +225,7 @@ def test_a_failed_stage_keeps_what_came_before(tiny_scene, tmp_path):
     out, model = tmp_path / "out", tiny_scene[1]
     with pytest.raises(InputError, match="distill failed"):
         stub_run(tiny_scene, out, model=model, fail="distill")
-    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate"}
+    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY, CREATED_KEY} == {"segment", "associate"}
     assert stub_run(tiny_scene, out, model=model)[1] == ["distill", "remove", "inpaint"]
 
 
@@ -201,8 +258,12 @@ def test_clicks_default_to_scene_json(tiny_scene, tmp_path):
 
 def test_an_output_folder_that_is_not_a_run_is_refused(tiny_scene, tmp_path):
     out = tmp_path / "out"
-    (out / "distill").mkdir(parents=True)
+    (out / "distill").mkdir(parents=True)  # named like a stage's folder, but not the run's: refused, kept
     (out / ".segment.123.abc.tmp").mkdir()  # a killed stage's temporary
+    with pytest.raises(InputError, match="distill/ was not written by this run"):
+        stub_run(tiny_scene, out, model=tiny_scene[1], until="segment")
+    assert (out / "distill").is_dir()
+    (out / "distill").rmdir()
     stub_run(tiny_scene, out, model=tiny_scene[1], until="segment")
     (out / "notes.txt").write_text("mine")
     with pytest.raises(InputError, match="holds 'notes.txt'"):
@@ -226,24 +287,39 @@ def test_cli_run_with_the_real_stages(tiny_scene, tmp_path, capsys):
     assert main(argv("--click", f"{VIEW}:0,0")) == 2  # nothing rendered there
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "on empty space" in err[0]
-    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY} == {"segment", "associate", "distill"}
+    assert set(json.loads((out / "run.json").read_text())) - {SECONDS_KEY, CREATED_KEY} == {"segment", "associate", "distill"}
     assert not (out / "removed").exists()
 
-    assert main(argv("--id", "1")) == 0
-    out_lines = capsys.readouterr().out.splitlines()
+    # 20 distillation steps on 32x24 photos: the field gives part of blob 1's shell to blob 2, the
+    # removal leaves it standing, and the run's check says so (exit 4, one line, the picture named)
+    assert main(argv("--id", "1")) == 4
+    cap = capsys.readouterr()
+    out_lines = cap.out.splitlines()
     assert out_lines[0] == "remove: selecting and removing the object ..."  # each stage that runs is announced first
-    lines = [ln for ln in out_lines if not ln.endswith(" ...")]
-    assert [" ".join(ln.split()) for ln in lines[:5]] == [
-        "train given", "segment up to date", "associate up to date", "distill up to date", "remove ran"]  # fmt: skip
+    assert out_lines[1:] == ["check: scoring the result after remove ..."]
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("inpaint360gs run: check failed: after remove: standing_removed: ")
+    assert "--accept" in err[0] and str(out / "check.png") in err[0]
+    report = json.loads((out / "check.json").read_text())
+    assert report["stage"] == "remove" and "standing_removed" in report["failed"] and not report["accepted"]
+    assert [c["name"] for c in report["checks"]][0] == "selection" and report["checks"][0]["passed"]  # the selection is blob 1
     rec = json.loads((out / "removed" / "removal.json").read_text())
-    assert rec["objects"] == [1] and rec["removed_gaussians"] > 0
+    assert rec["objects"] == [1] and rec["removed_gaussians"] > 0  # the failed result is kept for inspection
+    assert (out / "check.png").is_file()
+
+    assert main(argv("--id", "1", "--accept")) == 0  # accepted: nothing reruns, the report says so
+    lines = capsys.readouterr().out.splitlines()
+    assert [" ".join(ln.split()) for ln in lines[:5]] == [
+        "train given", "segment up to date", "associate up to date", "distill up to date", "remove up to date"]  # fmt: skip
+    assert any(ln.startswith("check      FAILED (standing_removed), accepted with --accept") for ln in lines)
+    assert json.loads((out / "check.json").read_text())["accepted"]
     files = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
 
-    assert main(argv("--id", "1")) == 0
+    assert main(argv("--id", "1", "--accept")) == 0
     assert "ran" not in capsys.readouterr().out
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == files
 
-    assert main(argv("--id", "1", distill_iterations=21)) == 0
+    assert main(argv("--id", "1", "--accept", distill_iterations=21)) == 0
     lines = [ln for ln in capsys.readouterr().out.splitlines() if not ln.endswith(" ...")]
     assert [ln.split()[1] for ln in lines[1:5]] == ["up", "up", "ran", "ran"]
     assert json.loads((out / "distill" / "distill.json").read_text())["settings"]["iterations"] == 21

@@ -7,6 +7,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
+
+import pytest
 
 from test_run import StubRunner, stub_run
 
@@ -14,7 +17,8 @@ from cli_harness import restore_threads, run_cli  # noqa: F401
 from inpaint360gs.distill.config import DistillConfig
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.io.scene import load_scene
-from inpaint360gs.pipeline.run import STAGES, RunConfig
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.pipeline.run import CREATED_KEY, STAGES, RunConfig
 from reliability.chains import INPAINT
 
 FOLDERS = {"train": "3dgs", "segment": "segment", "associate": "associate", "distill": "distill", "remove": "removed", "inpaint": "inpainted"}
@@ -45,14 +49,36 @@ def test_until_removes_the_stages_a_change_made_stale(tiny_scene, tmp_path):
     assert present(out) == recorded(out) == list(STAGES[1:])
 
 
-def test_a_folder_the_record_does_not_know_is_stale(tiny_scene, tmp_path):
-    """A stage folder without a run.json entry (its process was killed between the two writes, or the
-    record was lost) is not presented as current: it is removed, or rebuilt when its stage runs."""
+def test_a_folder_the_record_does_not_know_is_refused_not_removed(tiny_scene, tmp_path):
+    """A stage folder that run.json's manifest does not list (the record was lost, or someone put it
+    there) is not presented as current, and not removed either: clean-up removes only what the run
+    created. The run stops before anything is removed, naming the folder; a stage killed half-way
+    is in the manifest (written before the stage starts), so its folder is the run's own."""
     out, model = tmp_path / "out", tiny_scene[1]
     stub_run(tiny_scene, out, model=model)
     (out / "run.json").unlink()
-    assert stub_run(tiny_scene, out, model=model, until="associate")[1] == ["segment", "associate"]
-    assert present(out) == recorded(out) == ["segment", "associate"]
+    with pytest.raises(InputError, match="segment/ was not written by this run"):
+        stub_run(tiny_scene, out, model=model, until="associate")
+    assert present(out) == list(STAGES[1:])
+    # stopped after the stage wrote its folder, before the record said so: the manifest lists it
+    shutil.rmtree(out)
+
+    class Stopped(StubRunner):
+        def _distill(self):
+            super()._distill()
+            raise KeyboardInterrupt  # the record is not written after this
+
+    with pytest.raises(KeyboardInterrupt):
+        Stopped(load_scene(tiny_scene[0]), out, RunConfig(), log=[], ids=[1], model=model, progress=False).run()
+    record = json.loads((out / "run.json").read_text())
+    assert "distill" in record[CREATED_KEY] and "distill" not in record and (out / "distill").is_dir()
+    assert stub_run(tiny_scene, out, model=model, until="associate")[1] == []
+    assert present(out) == ["segment", "associate"]
+    # a stage refused before it wrote anything leaves the record as it was
+    before = (out / "run.json").read_text()
+    with pytest.raises(InputError, match="on purpose"):
+        stub_run(tiny_scene, out, model=model, fail="distill")
+    assert (out / "run.json").read_text() == before
 
 
 def test_the_3dgs_folder_is_the_trainers_or_holds_the_given_model(tiny_scene, tmp_path):
@@ -75,7 +101,7 @@ def test_the_3dgs_folder_is_the_trainers_or_holds_the_given_model(tiny_scene, tm
 def test_the_cli_run_with_changed_distillation_and_until_remove(chains, tmp_path, capsys):
     """The case that once kept the old ``inpainted/`` and its hash in run.json."""
     ch = chains["cone"]
-    base = ["run", str(ch.scene), str(tmp_path / "out"), "--model", str(ch.model), "--id", "1", *INPAINT, "--no-progress", "--threads", "2"]
+    base = ["run", str(ch.scene), str(tmp_path / "out"), "--model", str(ch.model), "--id", "1", *INPAINT, "--no-progress", "--threads", "2", "--accept"]
     code, _, err = run_cli("inpaint360gs", [*base, "--distill-iterations", "20"], capsys)
     assert code == 0, err
     first = json.loads((tmp_path / "out" / "run.json").read_text())

@@ -178,7 +178,7 @@ def test_a_click_on_an_object_the_segmenter_missed_grows_it_in_3d(blobs, tmp_pat
     blob = (labels == 2).numpy()
     got = sel.gaussians
     assert (got & blob).sum() / (got | blob).sum() > 0.9 and not (got & (labels == 0).numpy()).any()
-    info = remove_stage(missed, scene, tmp_path / "rem", clicks=[Click(v.name, x, y)], cfg=RemovalConfig(footprint_margin=None))
+    info = remove_stage(scene, missed, tmp_path / "rem", clicks=[Click(v.name, x, y)], cfg=RemovalConfig(footprint_margin=None))
     assert info["selected_by"] == {f"{v.name}:{x},{y}": "grown"} and info["objects"] == []
     removed = np.zeros(len(labels), bool)
     removed[np.load(tmp_path / "rem" / "removed_index.npy")] = True
@@ -430,7 +430,7 @@ def test_remove_stage_outputs(blobs, tmp_path):
     v = scene.train_views[3]
     click = Click(v.name, *centre_pixel(v.camera, BLOB_CENTRES[3]))
     cfg = RemovalConfig(footprint_margin=None)  # the object's own Gaussians only (the footprint column: its own test)
-    info = remove_stage(field, scene, tmp_path / "rem", clicks=[click], ids=[3], cfg=cfg, meta={"scene": "s"})
+    info = remove_stage(scene, field, tmp_path / "rem", clicks=[click], ids=[3], cfg=cfg, meta={"scene": "s"})
     out = tmp_path / "rem"
     assert sorted(p.name for p in out.iterdir()) == ["masks", "point_cloud.ply", "removal.json", "removed.ply", "removed_index.npy"]
     blob = (labels == 1).numpy()  # blob 1 = object 3: exactly its Gaussians (the floor lies below its hull)
@@ -451,15 +451,15 @@ def test_remove_stage_outputs(blobs, tmp_path):
     assert rec["removed_gaussians"] == blob.sum() and rec["kept_gaussians"] == (~blob).sum()
     assert abs(rec["amcr_percent"] - np.mean(pct)) < 1e-6
     # same inputs, same bytes
-    remove_stage(field, scene, tmp_path / "again", clicks=[click], ids=[3], cfg=cfg)
+    remove_stage(scene, field, tmp_path / "again", clicks=[click], ids=[3], cfg=cfg)
     for name in ["point_cloud.ply", "removed.ply", "removed_index.npy", *(f"masks/{w.stem}.png" for w in scene.train_views)]:
         assert (out / name).read_bytes() == (tmp_path / "again" / name).read_bytes(), name
     # an existing output is kept unless overwrite
     before = (out / "removal.json").read_bytes()
     with pytest.raises(InputError, match="not empty"):
-        remove_stage(field, scene, out, ids=[7])
+        remove_stage(scene, field, out, ids=[7])
     assert (out / "removal.json").read_bytes() == before
-    remove_stage(field, scene, out, ids=[7], overwrite=True)
+    remove_stage(scene, field, out, ids=[7], overwrite=True)
     assert json.loads((out / "removal.json").read_text())["objects"] == [7]
 
 

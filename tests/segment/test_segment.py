@@ -230,7 +230,7 @@ def blob_scene(tmp_path_factory):
 def test_stage_writes_one_id_image_per_training_view(blob_scene, tmp_path):
     root, ply, model, owner = blob_scene
     scene = load_scene(root)
-    info = segment_stage(scene, model, GeometricSegmenter(), tmp_path / "seg", model_path=ply, progress=False)
+    info = segment_stage(scene, model, tmp_path / "seg", GeometricSegmenter(), model_path=ply)
     files = sorted(p.name for p in (tmp_path / "seg").iterdir())
     assert files == sorted([f"{v.stem}.png" for v in scene.train_views] + ["segment.json"])
     assert not any(n.startswith("test_") for n in files)
@@ -243,7 +243,7 @@ def test_stage_writes_one_id_image_per_training_view(blob_scene, tmp_path):
     assert segs[v.stem].dtype == np.uint16 and segs[v.stem].max() == meta["views"][v.stem]["segments"] == 2
     assert read_mask(tmp_path / "seg" / f"{v.stem}.png").dtype == np.uint16
     # deterministic: same inputs, same bytes
-    segment_stage(scene, model, GeometricSegmenter(), tmp_path / "again", progress=False)
+    segment_stage(scene, model, tmp_path / "again", GeometricSegmenter())
     for v in scene.train_views:
         assert (tmp_path / "seg" / f"{v.stem}.png").read_bytes() == (tmp_path / "again" / f"{v.stem}.png").read_bytes()
 
@@ -258,7 +258,7 @@ def test_stage_refuses_a_model_of_another_scene(blob_scene, tmp_path):
     root, _, _, _ = blob_scene
     other = _other_scene()
     with pytest.raises(InputError, match="does not reproduce the training views"):
-        segment_stage(load_scene(root), other, GeometricSegmenter(), tmp_path / "x", progress=False)
+        segment_stage(load_scene(root), other, tmp_path / "x", GeometricSegmenter())
     assert not (tmp_path / "x").exists()
 
 

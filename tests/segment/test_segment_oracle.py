@@ -115,7 +115,7 @@ def scene_with_gt(tmp_path_factory):
 
 def test_stage_with_the_oracle_labels_its_outputs(scene_with_gt, tmp_path):
     scene = load_scene(scene_with_gt)
-    info = segment_stage(scene, None, get_segmenter("oracle", seed=3), tmp_path / "seg", progress=False)
+    info = segment_stage(scene, None, tmp_path / "seg", get_segmenter("oracle", seed=3))
     meta = json.loads((tmp_path / "seg" / "segment.json").read_text())
     assert meta["segmenter"] == "oracle" and meta["reads_ground_truth"] is True and info["settings"]["seed"] == 3
     assert all(1 <= v["segments"] <= 4 for v in meta["views"].values())

@@ -243,6 +243,8 @@ def test_the_kitchen_config_builds_runs_and_scores_a_capture(tmp_path):
     assert "--sfm-max-size 800 --downscale 4" in out
     assert "--click IMG_12.png:856,360 --resize 4 --preset cpu" in out
     assert f"{tmp_path}/results/captures/kitchen_removal.jpg" in out
+    assert "--no-progress --accept" in out  # a result failing its check is kept and reported, not deleted with the job
+    assert f"{tmp_path}/results/captures/kitchen_check.json" in out
 
 
 def test_stage_defaults_come_from_the_library(tmp_path):

@@ -15,19 +15,21 @@ rule build_capture:
         photos=lambda wc: capture(wc)["photos"],
         scene=lambda wc: f"{OUT}/captures/{wc.capture}/scene",
         sfm_max_size=lambda wc: capture(wc).get("sfm_max_size", 800),
-        downscale=lambda wc: f"--downscale {capture(wc)['resize']}" if capture(wc).get("resize", 1) > 1 else "",
+        downscale=lambda wc: f"--downscale {int(capture(wc)['resize'])}" if capture(wc).get("resize", 1) > 1 else "",
     threads: THREADS
     log:
         f"{OUT}/logs/captures/{{capture}}/build.log",
     benchmark:
         f"{OUT}/benchmarks/captures/{{capture}}/build.tsv"
     shell:
-        "inpaint360gs-dataset build {params.photos:q} {params.scene:q} --sfm-max-size {params.sfm_max_size}"
+        "inpaint360gs-dataset build {params.photos:q} {params.scene:q} --sfm-max-size {params.sfm_max_size:q}"
         " {params.downscale} --threads {threads} --overwrite --no-progress > {log:q} 2>&1"
 
 
 rule run_capture:
-    """`inpaint360gs run`: every stage from 3DGS to the inpainted scene, at the capture's clicks."""
+    """`inpaint360gs run`: every stage from 3DGS to the inpainted scene, at the capture's clicks.
+    `--accept`: a result that fails the run's own check is kept and reported (check.json beside the
+    scores), not deleted with a failed job."""
     input:
         scene_json=f"{OUT}/captures/{{capture}}/scene/scene.json",
     output:
@@ -35,7 +37,7 @@ rule run_capture:
     params:
         scene=lambda wc: f"{OUT}/captures/{wc.capture}/scene",
         out=lambda wc: f"{OUT}/captures/{wc.capture}/run",
-        clicks=lambda wc: " ".join(f"--click {c}" for c in capture(wc)["clicks"]),
+        clicks=lambda wc: click_args(capture(wc)["clicks"]),
         resize=lambda wc: capture(wc).get("resize", 1),
         preset=lambda wc: capture(wc).get("preset", "cpu"),
         backend=BACKEND,
@@ -48,8 +50,8 @@ rule run_capture:
     benchmark:
         f"{OUT}/benchmarks/captures/{{capture}}/run.tsv"
     shell:
-        "inpaint360gs run {params.scene:q} {params.out:q} {params.clicks} --resize {params.resize} --preset {params.preset}"
-        " --backend {params.backend} --threads {threads} --no-progress > {log:q} 2>&1"
+        "inpaint360gs run {params.scene:q} {params.out:q} {params.clicks} --resize {params.resize:q} --preset {params.preset:q}"
+        " --backend {params.backend:q} --threads {threads} --no-progress --accept > {log:q} 2>&1"
 
 
 rule capture_scores:
@@ -59,6 +61,7 @@ rule capture_scores:
         run_json=f"{OUT}/captures/{{capture}}/run/run.json",
     output:
         scores=f"{RESULTS}/captures/{{capture}}_scores.json",
+        check=f"{RESULTS}/captures/{{capture}}_check.json",
         figure=report(
             f"{RESULTS}/captures/{{capture}}_removal.jpg",
             caption="../report/capture.rst",
@@ -74,5 +77,5 @@ rule capture_scores:
         f"{OUT}/logs/captures/{{capture}}/scores.log",
     shell:
         "inpaint360gs capture-scores {params.scene:q} {params.run:q}/3dgs/point_cloud.ply {params.run:q}/distill {params.run:q}/removed"
-        " {output.scores:q} --inpainted {params.run:q}/inpainted --figure {output.figure:q} --resize {params.resize}"
-        " --threads {threads} > {log:q} 2>&1"
+        " {output.scores:q} --inpainted {params.run:q}/inpainted --figure {output.figure:q} --resize {params.resize:q}"
+        " --threads {threads} > {log:q} 2>&1 && cp {params.run:q}/check.json {output.check:q}"

@@ -2,11 +2,28 @@
 
 import fnmatch
 import os
+import re
 import shlex
 
 import yaml
 
 
+def shell_words(value, where):
+    """A config string of extra command-line arguments as shell words, each quoted (`--a 'b c'`
+    stays two arguments; `$(...)`, `;`, `>` reach the command as text, never the shell): every
+    config value reaches the shell quoted (docs/architecture.md, "Reliability")."""
+    try:
+        return shlex.join(shlex.split(value))
+    except ValueError as e:
+        config_error(f"{where} {value!r} is not a list of arguments ({e})")
+
+
+def click_args(clicks):
+    """`--click VIEW:X,Y` per click, each quoted."""
+    return " ".join(f"--click {shlex.quote(c)}" for c in clicks)
+
+
+EXTRA = {k: shell_words(config.get(k, {}).get("extra_args", ""), f"{k}.extra_args") for k in ("train", "segment", "remove", "inpaint")}
 DATA = config["data_dir"]
 OUT = config["out_dir"]
 RESULTS = config["results_dir"]
@@ -20,9 +37,10 @@ from inpaint360gs.segment.base import SEGMENTERS as _KNOWN_SEGMENTERS
 for _where, _preset in [("train.preset", config["train"].get("preset", "cpu"))] + [
         (f"captures.{n}.preset", c["preset"]) for n, c in config.get("captures", {}).items() if "preset" in c]:  # fmt: skip
     if _preset not in PRESETS:
-        raise WorkflowError(f"config: {_where} {_preset!r} is no preset; known: {sorted(PRESETS)}")
+        config_error(f"{_where} {_preset!r} is no preset; known: {sorted(PRESETS)}")
 _PRESET = get_preset(config["train"].get("preset", "cpu"))
-TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else getattr(_PRESET, k) for k in ("iterations", "max_gaussians", "backend")}
+_BUDGET = {"iterations": _PRESET.train.iterations, "max_gaussians": _PRESET.train.densify.max_gaussians, "backend": _PRESET.backend}
+TRAIN = {k: config["train"][k] if config["train"].get(k) is not None else v for k, v in _BUDGET.items()}
 
 # Distillation and inpainting settings: the library's defaults (their config dataclasses), each
 # replaced by the value `distill:` / `inpaint:` gives
@@ -83,7 +101,7 @@ else:
 for _entry in _entries:
     _name = os.path.basename(os.path.normpath(_entry)) if _is_folder(_entry) else _entry
     if _name in SCENE_DIRS:
-        raise WorkflowError(f"config: two scenes are named {_name!r}")
+        config_error(f"two scenes are named {_name!r}")
     SCENE_DIRS[_name] = os.path.normpath(_entry) if _is_folder(_entry) else None
 SCENES = list(SCENE_DIRS)
 SYNTHETIC = [s for s, d in SCENE_DIRS.items() if d is None]
@@ -92,10 +110,10 @@ TRAIN_SCENES = list(dict.fromkeys(s for e in config["train_scenes"] for s in (SC
 
 unknown = sorted(set(SYNTHETIC + [s for s in TRAIN_SCENES if s not in SCENE_DIRS]) - set(_synthetic_names()))
 if unknown:
-    raise WorkflowError(f"config: unknown scene name(s) {unknown} (synthetic: {_synthetic_names()}; a scene folder is given by its path, e.g. ./my_scene)")
+    config_error(f"unknown scene name(s) {unknown} (synthetic: {_synthetic_names()}; a scene folder is given by its path, e.g. ./my_scene)")
 missing = sorted(d for d in SCENE_DIRS.values() if d is not None and not os.path.isfile(f"{d}/scene.json"))
 if missing:
-    raise WorkflowError(f"config: scene folder(s) without scene.json: {missing}")
+    config_error(f"scene folder(s) without scene.json: {missing}")
 
 # The method and its comparisons (paper Tab. 1 and Tab. 3). `inpaint`: the arguments of
 # `inpaint360gs inpaint` (None: the scene after removal is rendered as it is).
@@ -133,16 +151,18 @@ for n in config["views_sweep"]:
                                      labels=dict(virtual_views=n))
 unknown = sorted(set(config["methods"]) - set(METHODS))
 if unknown:
-    raise WorkflowError(f"config: unknown method(s) {unknown}; known: {sorted(METHODS)}")
+    config_error(f"unknown method(s) {unknown}; known: {sorted(METHODS)}")
 SEGMENTERS = list(config["segmenters"])
 if set(SEGMENTERS) - set(_KNOWN_SEGMENTERS):
-    raise WorkflowError(f"config: unknown segmenter(s) {sorted(set(SEGMENTERS) - set(_KNOWN_SEGMENTERS))}; known: {sorted(_KNOWN_SEGMENTERS)}")
+    config_error(f"unknown segmenter(s) {sorted(set(SEGMENTERS) - set(_KNOWN_SEGMENTERS))}; known: {sorted(_KNOWN_SEGMENTERS)}")
 
 # Seeds of every stage after 3DGS (segment, distill and inpaint take --seed; associate and remove are
 # deterministic functions of what they read): one run per scene and seed, 3DGS once per scene at `seed`.
 SEEDS = list(config["seeds"])
 if len(set(SEEDS)) != len(SEEDS):
-    raise WorkflowError(f"config: seeds {SEEDS} repeat a seed")
+    config_error(f"seeds {SEEDS} repeat a seed")
+if config["ablation_seeds"] > len(SEEDS):
+    config_error(f"ablation_seeds {config['ablation_seeds']} exceeds the number of seeds ({len(SEEDS)})")
 # The seeds the ablations (and the L sweep) run at: their verdicts rest on their scenes (the intervals
 # resample scenes), so one seed on more scenes says more than three on fewer (docs/guide.md, "Tables of the paper").
 ABLATION_SEEDS = SEEDS[: config["ablation_seeds"]] if config["ablation_seeds"] else SEEDS
@@ -157,14 +177,14 @@ def _ablation_scenes():
     lists = dict.fromkeys(known, spec) if isinstance(spec, list) else spec
     unknown = sorted(set(lists) - set(known))
     if unknown:
-        raise WorkflowError(f"config: ablation_scenes names {unknown}, not ablations (abl_a .. abl_e, or sweep)")
+        config_error(f"ablation_scenes names {unknown}, not ablations (abl_a .. abl_e, or sweep)")
     return {m: [s for s in SCENES if any(e == "all" or fnmatch.fnmatchcase(s, e) for e in entries)] for m, entries in lists.items()}
 
 
 ABLATION_SCENES = _ablation_scenes()
 
 wildcard_constraints:
-    scene="|".join(sorted(set(SCENES + TRAIN_SCENES))),
+    scene="|".join(re.escape(s) for s in sorted(set(SCENES + TRAIN_SCENES))),  # a folder's name is text, not a pattern
     seed=r"\d+",
     segmenter="geometric|oracle|sam",
     association="kom|tracker",
@@ -200,8 +220,8 @@ for _name in sorted(set(SCENES + TRAIN_SCENES)):
     _scene = scene_dir(_name)
     for _key, _out in (("out_dir", f"{OUT}/{_name}"), ("results_dir", RESULTS)):
         if _overlap(_out, _scene) or (_key == "out_dir" and _overlap(_scene, _out)):
-            raise WorkflowError(f"config: {_key} {config[_key]!r} overlaps the scene folder {_scene!r} of scene {_name!r}: "
-                                "outputs must lie outside every scene folder")
+            config_error(f"{_key} {config[_key]!r} overlaps the scene folder {_scene!r} of scene {_name!r}: "
+                         "outputs must lie outside every scene folder")
 
 
 def runs():

@@ -29,7 +29,7 @@ rule evaluate:
         f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/evaluate.tsv"
     shell:
         "inpaint360gs evaluate {params.renders:q} {params.scene_dir:q} {output:q} {params.inception}"
-        " --removal {params.removed:q} --model {params.model:q} --backend {params.backend} --threads {threads} > {log:q} 2>&1"
+        " --removal {params.removed:q} --model {params.model:q} --backend {params.backend:q} --threads {threads} > {log:q} 2>&1"
 
 
 rule score_removal:
@@ -72,7 +72,7 @@ rule record:
             for k, v in dict(scene=wc.scene, seed=wc.seed, segmenter=wc.segmenter, method=wc.method, kind=METHODS[wc.method]["kind"],
                              name=METHODS[wc.method]["name"], **METHODS[wc.method].get("labels", {})).items()
         ),
-        stages=lambda wc: " ".join(f"--stage {k}={v}" for k, v in stage_benchmarks(wc).items()),
+        stages=lambda wc: " ".join("--stage " + shlex.quote(f"{k}={v}") for k, v in stage_benchmarks(wc).items()),
         model=lambda wc: os.path.join(os.path.dirname(method_model(wc)), "point_cloud.ply"),
     log:
         f"{OUT}/logs/{{scene}}/seed{{seed}}/{{segmenter}}/methods/{{method}}/record.log",

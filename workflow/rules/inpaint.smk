@@ -34,7 +34,7 @@ rule inpaint:
         switches=lambda wc: METHODS[wc.method]["inpaint"],
         iterations="" if INPAINT_ITERATIONS is None else f"--inpaint-iterations {INPAINT_ITERATIONS}",
         views=VIRTUAL_VIEWS,
-        extra=config["inpaint"]["extra_args"],
+        extra=EXTRA["inpaint"],
     threads: THREADS
     resources:
         mem_mb=8000,
@@ -46,5 +46,5 @@ rule inpaint:
     shell:
         # the method's switches come last: they override the configured defaults (e.g. L of a sweep run)
         "inpaint360gs inpaint {params.scene_dir:q} {params.distill:q} {params.removed:q} {params.out:q}"
-        " {params.iterations} --virtual-views {params.views} --seed {wildcards.seed}"
-        " --backend {params.backend} --threads {threads} --overwrite --no-progress {params.extra} {params.switches} > {log:q} 2>&1"
+        " {params.iterations} --virtual-views {params.views:q} --seed {wildcards.seed}"
+        " --backend {params.backend:q} --threads {threads} --overwrite --no-progress {params.extra} {params.switches} > {log:q} 2>&1"

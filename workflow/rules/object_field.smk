@@ -17,7 +17,7 @@ rule segment:
         backend=BACKEND,
         scene_dir=lambda wc: scene_dir(wc.scene),
         out=lambda wc: f"{run_dir(wc)}/segment",
-        extra=config["segment"]["extra_args"],
+        extra=EXTRA["segment"],
     threads: THREADS
     resources:
         mem_mb=4000,
@@ -27,7 +27,7 @@ rule segment:
         f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/segment.tsv"
     shell:
         "inpaint360gs segment {params.scene_dir:q} {input.model:q} {params.out:q} --segmenter {wildcards.segmenter}"
-        " --seed {wildcards.seed} --backend {params.backend} --threads {threads} --overwrite --no-progress {params.extra} > {log:q} 2>&1"
+        " --seed {wildcards.seed} --backend {params.backend:q} --threads {threads} --overwrite --no-progress {params.extra} > {log:q} 2>&1"
 
 
 rule associate:
@@ -79,13 +79,13 @@ rule distill:
         f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/{{association}}/distill.tsv"
     shell:
         "inpaint360gs distill {params.scene_dir:q} {input.model:q} {params.assoc:q} {params.out:q}"
-        " --iterations {params.iterations} --seed {wildcards.seed} --backend {params.backend} --threads {threads}"
+        " --iterations {params.iterations:q} --seed {wildcards.seed} --backend {params.backend:q} --threads {threads}"
         " --overwrite --no-progress > {log:q} 2>&1"
 
 
 def _clicks(wc):
-    """Clicks from the config for this scene (else the CLI takes those its scene.json names)."""
-    return " ".join(f"--click {c}" for c in config["clicks"].get(wc.scene, []))
+    """Clicks from the config for this scene (else the CLI takes those its scene.json names), quoted."""
+    return click_args(config["clicks"].get(wc.scene, []))
 
 
 rule remove:
@@ -101,7 +101,7 @@ rule remove:
         distill=lambda wc: f"{run_dir(wc)}/{wc.association}/distill",
         out=lambda wc: f"{run_dir(wc)}/{wc.association}/removed",
         clicks=_clicks,
-        extra=config["remove"]["extra_args"],
+        extra=EXTRA["remove"],
     threads: 1
     resources:
         mem_mb=4000,
@@ -111,7 +111,7 @@ rule remove:
         f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/{{association}}/remove.tsv"
     shell:
         "inpaint360gs remove {params.scene_dir:q} {params.distill:q} {params.out:q} {params.clicks}"
-        " --backend {params.backend} --threads {threads} --overwrite {params.extra} > {log:q} 2>&1"
+        " --backend {params.backend:q} --threads {threads} --overwrite {params.extra} > {log:q} 2>&1"
 
 
 rule render_removed:
@@ -133,4 +133,4 @@ rule render_removed:
         f"{OUT}/benchmarks/{{scene}}/seed{{seed}}/{{segmenter}}/{{association}}/render_removed.tsv"
     shell:
         "inpaint360gs render {params.model:q} {params.scene_dir:q} {params.out:q} --split test"
-        " --backend {params.backend} --threads {threads} --overwrite --no-progress > {log:q} 2>&1"
+        " --backend {params.backend:q} --threads {threads} --overwrite --no-progress > {log:q} 2>&1"

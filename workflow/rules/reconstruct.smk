@@ -15,7 +15,7 @@ rule train_3dgs:
         schedule_scale=config["train"]["schedule_scale"],
         max_gaussians=TRAIN["max_gaussians"],
         backend=TRAIN["backend"],
-        extra=config["train"].get("extra_args", ""),
+        extra=EXTRA["train"],
         seed=config["seed"],
     threads: THREADS
     resources:
@@ -28,9 +28,9 @@ rule train_3dgs:
     shell:
         # --resume --overwrite: an interrupted run continues from its checkpoint; a checkpoint made
         # with other settings or another scene is discarded and training starts afresh
-        "inpaint360gs train {params.scene_dir:q} {params.out:q} --iterations {params.iterations}"
-        " --schedule-scale {params.schedule_scale} --max-gaussians {params.max_gaussians}"
-        " --backend {params.backend} --seed {params.seed} --threads {threads} --no-progress --resume --overwrite {params.extra} > {log:q} 2>&1"
+        "inpaint360gs train {params.scene_dir:q} {params.out:q} --iterations {params.iterations:q}"
+        " --schedule-scale {params.schedule_scale:q} --max-gaussians {params.max_gaussians:q}"
+        " --backend {params.backend:q} --seed {params.seed:q} --threads {threads} --no-progress --resume --overwrite {params.extra} > {log:q} 2>&1"
 
 
 rule table_3dgs:

@@ -5,7 +5,11 @@ view-consistent object ids through the Gaussians they cover.
   tracker of ablation a); :mod:`.stage` — :func:`associate` (arrays) and :func:`associate_stage` (folders).
 """
 
-from inpaint360gs.associate.config import MAX_OBJECTS, AssociationConfig
-from inpaint360gs.associate.stage import Association, associate, associate_stage, write_association
+from inpaint360gs.core.exports import lazy_exports
 
-__all__ = ["MAX_OBJECTS", "Association", "AssociationConfig", "associate", "associate_stage", "write_association"]
+# name -> module: imported on first use, so that the settings (``associate.config``) load without the stage
+_EXPORTS = {"MAX_OBJECTS": "config", "AssociationConfig": "config", "Association": "stage", "associate": "stage", "associate_stage": "stage",
+            "write_association": "stage"}  # fmt: skip
+__all__ = sorted(_EXPORTS)
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

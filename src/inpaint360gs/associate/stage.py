@@ -19,8 +19,10 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
+from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
 
 
@@ -88,29 +90,36 @@ def write_association(result: Association, scene: Scene, out: str | Path, *, met
 
 def associate_stage(
     scene: Scene,
-    model: Gaussians,
+    model: Gaussians | str | Path,
     segment_dir: str | Path,
     out: str | Path,
     cfg: AssociationConfig | None = None,
     *,
     overwrite: bool = False,
-    meta: dict | None = None,
+    progress: bool = False,
     model_path: str | Path | None = None,
+    meta: dict | None = None,
 ) -> Association:
     """Read the segment stage's output, associate, write ``out``; returns the association.
 
     The segments must be of this scene and of this model (docs/architecture.md, "Provenance chain"):
     ``segment.json`` records the scene's content hash, ``--resize`` and the model's sha256.
 
-    Args: ``segment_dir`` the segment stage's folder; ``out`` the folder to write (absent or empty
-    unless ``overwrite``); ``cfg`` None = defaults; ``meta`` extra keys for ``objects.json``;
-    ``model_path`` the model's PLY, checked against what the segments record.
+    Args: ``model`` the 3DGS (a :class:`Gaussians` or its PLY); ``segment_dir`` the segment stage's
+    folder; ``out`` the folder to write (absent or empty unless ``overwrite``); ``cfg`` None =
+    defaults; ``progress`` taken for the stages' common call shape (the association takes seconds
+    and shows no bar); ``model_path`` the model's PLY when ``model`` is a :class:`Gaussians`, checked
+    against what the segments record; ``meta`` extra keys for ``objects.json``.
     Raises: :class:`InputError` for a non-empty ``out``, a folder that is no segment output, or
     segments of another scene or model."""
     from inpaint360gs.segment.stage import SEGMENT_JSON, read_segments
 
+    check_stage_call("associate_stage", scene, out, cfg, AssociationConfig, overwrite=overwrite, progress=progress, models={"model": model}, folders={"segment_dir": segment_dir})
     t0 = time.perf_counter()
     check_output_dir(out, overwrite)  # before any work
+    if isinstance(model, (str, Path)):
+        model_path = Path(model)
+        model = read_ply(model_path)
     info_path = Path(segment_dir) / SEGMENT_JSON
     if not info_path.is_file():
         raise InputError(f"not a segment stage output (no {SEGMENT_JSON})", segment_dir)

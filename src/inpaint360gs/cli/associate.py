@@ -38,7 +38,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``inpaint360gs associate`` with parsed ``args``; returns the exit status."""
-    from inpaint360gs.io.ply import read_ply
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.associate import AssociationConfig, associate_stage
 
@@ -49,8 +48,6 @@ def run(args: argparse.Namespace) -> int:
         part_share=args.part_share, merge_share=args.merge_share, consolidate=args.consolidate,
     ).resolved()  # fmt: skip
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
-    model = read_ply(args.model)
-    res = associate_stage(scene, model, args.segments, args.out, cfg, overwrite=args.overwrite, model_path=args.model,
-                          meta={"scene": str(scene.root), "model": str(args.model)})  # fmt: skip
+    res = associate_stage(scene, args.model, args.segments, args.out, cfg, overwrite=args.overwrite, meta={"scene": str(scene.root), "model": str(args.model)})
     print(f"{scene.name}: {len(res.objects)} object(s) over {len(res.masks)} training views ({cfg.method}) -> {args.out}")
     return 0

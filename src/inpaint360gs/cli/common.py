@@ -17,6 +17,7 @@ import argparse
 import importlib
 import math
 import os
+import re
 import signal
 import sys
 import warnings
@@ -24,16 +25,18 @@ from collections.abc import Callable
 from pathlib import Path
 
 from inpaint360gs.core.errors import (
+    EXIT_CHECK,
     EXIT_DIVERGED,
     EXIT_INPUT,
     EXIT_INTERNAL,
     EXIT_SIGINT,
     EXIT_SIGTERM,
+    CheckFailedError,
     InputError,
     Terminated,
     TrainingDivergedError,
 )
-from inpaint360gs.core.files import path_problem
+from inpaint360gs.core.files import check_apart, path_problem  # noqa: F401  (check_apart: every CLI's, defined with the file rules)
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -69,6 +72,27 @@ def _one_line_warnings(prog: str) -> None:
 def _first_line(e: BaseException) -> str:
     text = str(e).strip()
     return text.splitlines()[0] if text else type(e).__name__
+
+
+# torch's allocators: "DefaultCPUAllocator: can't allocate memory: you tried to allocate 123 bytes",
+# "CUDA out of memory. Tried to allocate 2.00 GiB"; numpy: "Unable to allocate 1.00 TiB for an array"
+_ALLOC_FAILED = re.compile(r"can't allocate memory|out of memory|Unable to allocate", re.I)
+_ALLOC_SIZE = re.compile(r"allocate (\d+) bytes|allocate ([\d.]+ ?[KMGTP]i?B)", re.I)
+
+
+def _out_of_memory(e: BaseException) -> str:
+    """One line for a failed allocation, with the size asked for when the message says it."""
+    m = _ALLOC_SIZE.search(str(e))
+    size = "" if m is None else f" (an allocation of {m.group(2) or _bytes(int(m.group(1)))} failed)"
+    return f"out of memory{size}: try smaller images (--resize), fewer Gaussians, or a machine with more memory"
+
+
+def _bytes(n: int) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if n < 1024 or unit == "PiB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.2f} {unit}"
+        n /= 1024
+    return f"{n} B"
 
 
 def _os_error(e: OSError) -> str:
@@ -165,6 +189,9 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
     except TrainingDivergedError as e:
         print(f"{where}: training diverged: {e}", file=sys.stderr)
         return EXIT_DIVERGED
+    except CheckFailedError as e:
+        print(f"{where}: check failed: {e}", file=sys.stderr)
+        return EXIT_CHECK
     except KeyboardInterrupt:
         print(f"{where}: interrupted (partial outputs removed; rerun to continue)", file=sys.stderr)
         return EXIT_SIGINT
@@ -174,10 +201,13 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
     except OSError as e:  # disk full, permission denied, a path component that is a file, ...
         print(f"{where}: error: {_os_error(e)}", file=sys.stderr)
         return EXIT_INPUT
-    except MemoryError:
-        print(f"{where}: error: out of memory (try smaller images, --resize, or fewer Gaussians)", file=sys.stderr)
+    except MemoryError as e:
+        print(f"{where}: error: {_out_of_memory(e)}", file=sys.stderr)
         return EXIT_INPUT
     except Exception as e:  # a bug: still one line, the traceback on request
+        if isinstance(e, RuntimeError) and _ALLOC_FAILED.search(str(e)):  # torch's allocator (CPU or CUDA): a resource, not a bug
+            print(f"{where}: error: {_out_of_memory(e)}", file=sys.stderr)
+            return EXIT_INPUT
         if os.environ.get("INPAINT360GS_DEBUG"):
             raise
         print(f"{where}: internal error: {type(e).__name__}: {_first_line(e)} (set INPAINT360GS_DEBUG=1 for the traceback)", file=sys.stderr)
@@ -276,54 +306,6 @@ def _writable(folder: bool) -> Callable[[str], Path]:
 
 output_dir = _writable(folder=True)  # argument type: a folder to create or replace (checked before any work)
 output_file = _writable(folder=False)  # argument type: a file to create or replace
-
-
-def _resolved(p: str | Path) -> Path:
-    try:
-        return Path(p).resolve()
-    except (OSError, RuntimeError):  # a symbolic link loop on older Pythons
-        return Path(os.path.abspath(p))
-
-
-def _same(a: Path, b: Path) -> bool:
-    """The same file or folder: equal once resolved, or the same inode (a bind mount, a hard link)."""
-    if a == b:
-        return True
-    try:
-        return os.path.samefile(a, b)
-    except OSError:
-        return False
-
-
-def _within(inner: Path, outer: Path) -> bool:
-    """``inner`` lies inside the folder ``outer`` (both resolved)."""
-    return any(_same(p, outer) for p in inner.parents)
-
-
-def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None], *, replaced: bool = True) -> None:
-    """Raise :class:`InputError` when writing an output would destroy an input or another output
-    (docs/architecture.md, "Reliability": inputs are never written).
-
-    ``outputs`` and ``inputs`` map an argument's name to its path (None: not given). Paths are
-    compared resolved (symbolic links, ``..``, relative paths) and by inode (the same folder under two
-    names). An output may not be an input, nor lie inside an input folder (a scene folder, a stage's
-    output; with or without ``--overwrite``), nor (when the stage ``replaced`` its output folder as a
-    whole, as the atomic folder writers do) be a folder that holds an input; two outputs may not be
-    the same path. A command that writes into a scene (``unseen-masks``) does not list the scene.
-    """
-    outs = [(k, _resolved(v)) for k, v in outputs.items() if v is not None]
-    ins = [(k, _resolved(v)) for k, v in inputs.items() if v is not None]
-    for i, (name, out) in enumerate(outs):
-        for other, path in ins:
-            if _same(out, path):
-                raise InputError(f"output {name} is the input {other} ({path}); choose another output", outputs[name])
-            if os.path.isdir(path) and _within(out, path):
-                raise InputError(f"output {name} lies inside the input {other} ({path}), which this stage reads; choose an output outside it", outputs[name])
-            if replaced and _within(path, out):
-                raise InputError(f"output {name} holds the input {other} ({path}); choose another output", outputs[name])
-        for other, path in outs[:i]:
-            if _same(out, path):
-                raise InputError(f"{other} and {name} are the same path; one output would overwrite the other", outputs[name])
 
 
 # --- threads -----------------------------------------------------------------------------------------

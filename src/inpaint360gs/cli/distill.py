@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     if not masks.is_dir():
         raise InputError("no object_mask/ folder in the association folder", args.assoc)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False, unregistered="warn")
-    res = distill_stage(scene, args.model, masks, objects, cfg, args.out, overwrite=args.overwrite, progress=not args.no_progress)
+    res = distill_stage(scene, args.model, masks, objects, args.out, cfg, overwrite=args.overwrite, progress=not args.no_progress)
     r = res.report
     tv = r["final"]["train_views"]
     miou = f", mean object IoU {tv['mean_object_iou']:.3f}" if tv["mean_object_iou"] is not None else ""

@@ -97,6 +97,6 @@ def run(args: argparse.Namespace) -> int:
     cfg = inpaint_config(args, args.seed, args.backend)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False)
     field = IdentityField.load(args.distill)
-    rec = inpaint_stage(field, args.removed, scene, args.out, cfg, overwrite=args.overwrite, progress=not args.no_progress)
+    rec = inpaint_stage(scene, field, args.removed, args.out, cfg, overwrite=args.overwrite, progress=not args.no_progress)
     print(f"{scene.name}: inpainted on {rec['num_views']} {rec['views']} view(s), {rec['new_gaussians']} new Gaussians, in {rec['seconds']['total_s']:.0f} s -> {args.out}")
     return 0

@@ -67,7 +67,7 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"nothing selected: give --click VIEW:X,Y or --id N ({no_clicks_reason(scene)})", scene.root / "scene.json")
     check_clicks(scene, clicks, where)
     field = load_field(args.distill, scene)
-    info = remove_stage(field, scene, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,
+    info = remove_stage(scene, field, args.out, clicks=clicks, ids=args.id, cfg=cfg, backend=args.backend, overwrite=args.overwrite,
                          meta={"scene": str(scene.root), "distill": str(args.distill)})  # fmt: skip
     print(f"{scene.name}: removed object(s) {info['objects']} ({info['removed_gaussians']} Gaussians); AMCR {info['amcr_percent']:.2f}% -> {args.out}")
     return 0

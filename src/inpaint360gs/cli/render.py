@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     bg = torch.ones(3) if args.white_background else torch.zeros(3)
     settings = {"views": [v.name for v in views], "sh_degree": args.sh_degree, "white_background": args.white_background}
     meta = {"model": str(args.model), "split": args.split, provenance.KEY: provenance.make("render", scene, {"model": model_sha}, settings)}
-    summary = render_stage(model, scene, views, args.out, sh_degree=args.sh_degree, background=bg, backend=args.backend, overwrite=args.overwrite,
+    summary = render_stage(scene, model, views, args.out, sh_degree=args.sh_degree, background=bg, backend=args.backend, overwrite=args.overwrite,
                            progress=not args.no_progress, meta=meta)
     if views and summary["empty_views"] == len(views):
         warnings.warn(f"{args.model}: every rendered pixel is background in all {len(views)} view(s); is this model in this scene's frame, with sensible scales and opacities?")

@@ -101,12 +101,7 @@ def run(args: argparse.Namespace) -> int:
     check_apart({"OUT": args.out}, {"SCENE": args.scene, "MODEL": args.model})  # --overwrite replaces OUT as a whole
     segmenter = make_segmenter(args)
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, load_masks=False, unregistered="warn" if args.allow_unregistered else "error")
-    model = None
-    if segmenter.uses_model:
-        from inpaint360gs.io.ply import read_ply
-
-        model = read_ply(args.model)
-    info = segment_stage(scene, model, segmenter, args.out, model_path=args.model, overwrite=args.overwrite, progress=not args.no_progress)
+    info = segment_stage(scene, args.model, args.out, segmenter, overwrite=args.overwrite, progress=not args.no_progress)
     counts = [v["segments"] for v in info["views"].values()]
     label = " (from ground truth)" if info["reads_ground_truth"] else ""
     print(

@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     cfg = config_from_args(args)
     cfg.validate()
     scene = load_scene(args.scene, resize=args.resize, llffhold=args.llffhold, unregistered="warn" if args.allow_unregistered else "error")
-    res = train_stage(scene, cfg, args.out, resume=args.resume, overwrite=args.overwrite, progress=not args.no_progress)
+    res = train_stage(scene, args.out, cfg, resume=args.resume, overwrite=args.overwrite, progress=not args.no_progress)
     m = res.metrics
     held = f"held-out PSNR {m['psnr']:.2f} dB, SSIM {m['ssim']:.4f} on {m['num_holdout_views']} views" if m["psnr"] is not None else "no held-out views"
     print(f"{scene.name}: {m['num_gaussians']} Gaussians after {m['iterations']} steps in {m['train_seconds']:.0f} s; {held}; peak RSS {m['peak_rss_mb']:.0f} MiB")

@@ -2,7 +2,8 @@
 
 Every stage raises these instead of printing; ``inpaint360gs.cli`` maps them to exit codes:
 0 success, 1 internal error (a bug: please report it), 2 bad input or usage, 3 training diverged,
-130 interrupted (SIGINT), 143 terminated (SIGTERM).
+4 the result failed the run's own check (its outputs are kept for inspection), 130 interrupted
+(SIGINT), 143 terminated (SIGTERM).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ EXIT_OK = 0
 EXIT_INTERNAL = 1
 EXIT_INPUT = 2
 EXIT_DIVERGED = 3
+EXIT_CHECK = 4
 EXIT_SIGINT = 130
 EXIT_SIGTERM = 143
 
@@ -35,6 +37,16 @@ class InputError(Exception):
 
 class TrainingDivergedError(RuntimeError):
     """Optimisation produced NaN/Inf or diverged; the message says at which step and in which quantity."""
+
+
+class CheckFailedError(Exception):
+    """A run's result failed one of its own checks (docs/architecture.md, "A run checks itself"): the
+    message names the check, its value and limit, and the picture to look at (``path``)."""
+
+    def __init__(self, message: str, path: str | Path | None = None):
+        self.path = None if path is None else Path(path)
+        self.message = message
+        super().__init__(f"{message} (see {path})" if path is not None else message)
 
 
 class TestPixelAccessError(RuntimeError):

@@ -74,8 +74,9 @@ def check_readable(path: str | Path, what: str = "a file", missing: str | None =
     raise InputError(f"{problem} (expected {what})", path)
 
 
-def read_json_object(path: str | Path) -> dict:
-    """A JSON file that must hold an object (a stage record, scene.json); one-line errors otherwise."""
+def parse_json(path: str | Path):
+    """The JSON value in the file ``path``: one-line :class:`InputError` naming it for a file that is
+    not readable, not valid JSON (bytes or text), or nested too deeply for the parser."""
     import json
 
     from inpaint360gs.core.errors import InputError
@@ -83,9 +84,116 @@ def read_json_object(path: str | Path) -> dict:
     path = Path(path)
     check_readable(path, "a JSON file")
     try:
-        data = json.loads(path.read_text())
+        return json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError) as e:
         raise InputError(f"not valid JSON ({e})", path) from None
+    except RecursionError:
+        raise InputError("JSON nested too deeply to read", path) from None
+
+
+def read_json_object(path: str | Path) -> dict:
+    """A JSON file that must hold an object (a stage record, scene.json); one-line errors otherwise."""
+    from inpaint360gs.core.errors import InputError
+
+    data = parse_json(path)
     if not isinstance(data, dict):
-        raise InputError(f"{path.name} must hold a JSON object", path)
+        raise InputError(f"{Path(path).name} must hold a JSON object", path)
     return data
+
+
+# --- containment: what a stage reads lies inside what it was given (docs/architecture.md, "Reliability")
+
+
+def resolved(p: str | Path) -> Path:
+    """``p`` absolute with every link and ``..`` resolved (as far as it exists); a link loop leaves
+    it absolute but unresolved."""
+    try:
+        return Path(p).resolve()
+    except (OSError, RuntimeError):  # a symbolic link loop on older Pythons
+        return Path(os.path.abspath(p))
+
+
+def same_path(a: Path, b: Path) -> bool:
+    """The same file or folder: equal once resolved, or the same inode (a bind mount, a hard link)."""
+    if a == b:
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def lies_within(inner: Path, outer: Path) -> bool:
+    """``inner`` lies inside the folder ``outer`` (both resolved)."""
+    # a loop, not any(<generator>): a generator left suspended is closed when collected, and a
+    # signal arriving in that close is lost ("Exception ignored in") instead of stopping the command
+    for p in inner.parents:
+        if same_path(p, outer):
+            return True
+    return False
+
+
+def inside(root: str | Path, rel: str | Path, what: str = "the scene") -> Path:
+    """``root / rel``, after checking that it lies inside ``root`` once every symbolic link is
+    followed: ``rel`` is relative, has no ``..`` and no link on the way leads out of ``root``.
+    Every file a stage reads from a scene, a model's folder or a run goes through here, and so
+    does ``validate``; nothing outside is opened. Raises :class:`InputError` naming the path and
+    where it leads (``what`` names ``root`` in the message)."""
+    from inpaint360gs.core.errors import InputError
+
+    root, rel_path = Path(root), Path(rel)
+    parts = str(rel).split("/")  # as given: "images/" + an absolute name holds an empty part
+    if rel_path.is_absolute() or ".." in parts or "" in parts or not str(rel).strip():
+        raise InputError(f"names {str(rel)!r}, outside {what}: a stage reads only files inside {what} ({root})", root)
+    path = root / rel_path
+    real, top = resolved(path), resolved(root)
+    if os.path.islink(path) and not os.path.exists(path):  # a broken link or a loop: say so first
+        raise InputError(str(path_problem(path)), path)
+    if real != top and not lies_within(real, top):
+        raise InputError(f"leads to {real}, outside {what} ({top}): a stage reads only files inside {what}, links included", path)
+    return path
+
+
+def _links_into(folder: Path, target: Path) -> Path | None:
+    """The first entry under ``folder`` (not followed into linked folders) that is a symbolic link
+    resolving to ``target`` or inside it; None when there is none."""
+    for top, dirs, files in os.walk(folder):
+        for name in dirs + files:
+            p = Path(top) / name
+            if p.is_symlink():
+                real = resolved(p)
+                if same_path(real, target) or lies_within(real, target):
+                    return p
+    return None
+
+
+def check_apart(outputs: dict[str, str | Path | None], inputs: dict[str, str | Path | None], *, replaced: bool = True) -> None:
+    """Raise :class:`InputError` when writing an output would destroy an input or another output
+    (docs/architecture.md, "Reliability": inputs are never written, also through links).
+
+    ``outputs`` and ``inputs`` map an argument's name to its path (None: not given). Paths are
+    compared resolved (symbolic links, ``..``, relative paths) and by inode (the same folder under two
+    names). An output may not be an input, nor lie inside an input folder (a scene folder, a stage's
+    output; with or without ``--overwrite``), nor (when the stage ``replaced`` its output folder as a
+    whole, as the atomic folder writers do) be a folder that holds an input or that a link in an
+    input folder leads into; two outputs may not be the same path. A command that writes into a
+    scene (``unseen-masks``) does not list the scene.
+    """
+    from inpaint360gs.core.errors import InputError
+
+    outs = [(k, resolved(v)) for k, v in outputs.items() if v is not None]
+    ins = [(k, resolved(v)) for k, v in inputs.items() if v is not None]
+    for i, (name, out) in enumerate(outs):
+        for other, path in ins:
+            if same_path(out, path):
+                raise InputError(f"output {name} is the input {other} ({path}); choose another output", outputs[name])
+            if os.path.isdir(path) and lies_within(out, path):
+                raise InputError(f"output {name} lies inside the input {other} ({path}), which this stage reads; choose an output outside it", outputs[name])
+            if replaced and lies_within(path, out):
+                raise InputError(f"output {name} holds the input {other} ({path}); choose another output", outputs[name])
+            link = _links_into(path, out) if replaced and os.path.isdir(path) and os.path.exists(out) else None
+            if link is not None:
+                raise InputError(f"{link} in the input {other} is a link into output {name} ({out}), which this stage replaces; choose another output", outputs[name])
+        for other, path in outs[:i]:
+            if same_path(out, path):
+                raise InputError(f"{other} and {name} are the same path; one output would overwrite the other", outputs[name])

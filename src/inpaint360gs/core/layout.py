@@ -70,6 +70,32 @@ def is_image_name(name: str) -> bool:
     return Path(name).suffix.lower() in IMAGE_SUFFIXES
 
 
+def image_files(images_dir: str | Path) -> set[str]:
+    """Image files under ``images_dir`` (names relative to it, sub-folders included, hidden files and
+    folders skipped): what a scene's ``images/`` holds, for the loader and ``validate`` alike."""
+    images_dir = Path(images_dir)
+    out = set()
+    for p in images_dir.rglob("*"):
+        rel = p.relative_to(images_dir)
+        if p.is_file() and is_image_name(p.name) and not any(s.startswith(".") for s in rel.parts):
+            out.add(rel.as_posix())
+    return out
+
+
+def same_stem(names) -> tuple[str, str] | None:
+    """Two of ``names`` (image names, as registered) sharing a stem, or None. Per-view outputs are
+    named by stem (``segment/<stem>.png``, masks), so ``a/IMG_1.png`` and ``b/IMG_1.png``, or
+    ``IMG_1.png`` and ``IMG_1.jpg``, would share one: a scene refuses them (the loader and
+    ``validate`` alike)."""
+    seen: dict[str, str] = {}
+    for n in sorted(names):
+        stem = Path(n).stem
+        if stem in seen:
+            return seen[stem], n
+        seen[stem] = n
+    return None
+
+
 def scaled_images_dir(resize: int) -> str:
     """Name of the folder of the images downscaled by ``resize`` (``images_<resize>``)."""
     return f"{IMAGES_DIR}_{resize}"

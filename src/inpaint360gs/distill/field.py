@@ -18,6 +18,7 @@ import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import parse_json
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io import provenance
 from inpaint360gs.io.atomic import write_text
@@ -136,12 +137,12 @@ def read_classifier(path: str | Path) -> tuple[torch.nn.Linear, list[int]]:
     path = Path(path)
     if not path.is_file():
         raise InputError("classifier.json not found", path)
+    d = parse_json(path)
     try:
-        d = json.loads(path.read_text())
         w = torch.tensor(d["weight"], dtype=torch.float32)
         b = torch.tensor(d["bias"], dtype=torch.float32)
         ids = [int(i) for i in d["object_ids"]]
-    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError, ValueError) as e:
+    except (KeyError, TypeError, ValueError) as e:
         raise InputError(f"not a classifier file ({type(e).__name__}: {e})", path) from None
     if w.ndim != 2 or b.shape != (w.shape[0],) or len(ids) != w.shape[0] or not torch.isfinite(w).all() or not torch.isfinite(b).all():
         raise InputError(f"inconsistent classifier: weight {tuple(w.shape)}, bias {tuple(b.shape)}, {len(ids)} object ids (or non-finite values)", path)

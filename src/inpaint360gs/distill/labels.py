@@ -10,7 +10,6 @@ and hold only listed ids.
 from __future__ import annotations
 
 import hashlib
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ import numpy as np
 import torch
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import parse_json
 from inpaint360gs.io.images import find_mask, read_mask
 from inpaint360gs.io.scene import View
 
@@ -34,10 +34,7 @@ def read_objects(path: str | Path) -> list[int]:
     path = Path(path)
     if not path.is_file():
         raise InputError("objects.json not found", path)
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError(f"not valid JSON ({e})", path) from None
+    data = parse_json(path)
     if isinstance(data, dict):
         data = data.get("objects", data.get("ids"))
     if not isinstance(data, list):

@@ -1,7 +1,7 @@
 """Object-ID distillation (paper Sec. 3.3, supp. B "Object Feature Distillation", Alg. 1): the
 associated per-view object masks are distilled into identity features of the frozen Gaussian field.
 
-``distill_stage(scene, model, masks_dir, objects, cfg, out_dir)``:
+``distill_stage(scene, model, masks_dir, objects, out, cfg)``:
 
 1. read and check every input (model, object ids, one mask per training view) before any work;
 2. give each Gaussian a random feature f_i in R^F (Gaussian Grouping's initialisation: U[0, 1)
@@ -12,7 +12,7 @@ associated per-view object masks are distilled into identity features of the fro
 4. run the shared :class:`~inpaint360gs.gs.loop.OptimizationLoop` for ``cfg.iterations`` steps
    training only ``features`` and Phi (no densification): L = CE(softmax(Phi(W f)), O) + lambda L_space;
 5. write ``point_cloud.ply`` (features as ``obj_*``), ``classifier.json`` and ``distill.json``
-   (inputs with sha256, settings, loss curve, timings, memory) atomically into ``out_dir``.
+   (inputs with sha256, settings, loss curve, timings, memory) atomically into ``out``.
 
 Same inputs and seed give the same ``point_cloud.ply`` and ``classifier.json`` bytes (``distill.json``
 also records wall times).
@@ -40,6 +40,7 @@ from inpaint360gs.distill.loss import knn_graph, object_loss, spatial_loss
 from inpaint360gs.gs.loop import OptimizationLoop, Target, TargetList
 from inpaint360gs.gs.trainer import peak_rss_mb
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.ply import read_ply, write_ply
 from inpaint360gs.io.scene import Scene
@@ -196,26 +197,30 @@ def distill_stage(
     model: Gaussians | str | Path,
     masks_dir: str | Path,
     objects: Sequence[int] | str | Path,
+    out: str | Path | None,
     cfg: DistillConfig | None = None,
-    out_dir: str | Path | None = None,
     *,
     overwrite: bool = False,
     progress: bool = False,
 ) -> DistillResult:
     """Distill the masks in ``masks_dir`` (one ``<stem>.png`` id image per training view of ``scene``)
     into identity features of ``model`` (a Gaussians or a PLY path); ``objects`` = the object ids or
-    the association's ``objects.json``. Writes ``out_dir`` unless it is None.
+    the association's ``objects.json``. Writes ``out`` unless it is None.
 
-    Args: ``cfg`` None = defaults; ``overwrite`` replace a non-empty ``out_dir``; ``progress`` show a progress bar.
+    Args: ``cfg`` None = defaults; ``overwrite`` replace a non-empty ``out``; ``progress`` show a progress bar.
     Returns: :class:`DistillResult`.
-    Raises: :class:`InputError` for invalid settings, a non-empty ``out_dir``, or masks and model not
+    Raises: :class:`InputError` for invalid settings, a non-empty ``out``, or masks and model not
     made from this scene (or the association not from this model)."""
     from tqdm import tqdm
 
+    check_stage_call("distill_stage", scene, out, cfg, DistillConfig, overwrite=overwrite, progress=progress, out_optional=True, models={"model": model},
+                     folders={"masks_dir": masks_dir, **({"objects": objects} if isinstance(objects, (str, Path)) else {})})
+    if not isinstance(objects, (str, Path)) and not (isinstance(objects, (list, tuple)) and all(isinstance(i, int) and not isinstance(i, bool) for i in objects)):
+        raise InputError(f"expected object ids (a list of whole numbers) or the association's objects.json, got {objects!r:.40}", setting="distill_stage.objects")
     t_start = time.perf_counter()
     cfg = cfg or DistillConfig()
     cfg.validate()
-    out = None if out_dir is None else Path(out_dir)
+    out = None if out is None else Path(out)
     if out is not None and out.exists() and not out.is_dir():
         raise InputError("output path exists and is not a folder", out)
     if out is not None and out.exists() and any(out.iterdir()) and not overwrite:

@@ -1,9 +1,9 @@
 """3DGS training runner (Kerbl et al. 2023; the paper's Gaussian field, Sec. 3.1 / supp. Sec. C).
 
-``train_stage(scene, cfg, out_dir)`` initialises Gaussians from the sparse SfM points, optimises them on the
+``train_stage(scene, out, cfg)`` initialises Gaussians from the sparse SfM points, optimises them on the
 scene's training views with the 3DGS recipe (see :mod:`inpaint360gs.gs.config`), checkpoints
 atomically, stops with :class:`TrainingDivergedError` on NaN/Inf, evaluates on the held-out views and
-writes ``point_cloud.ply``, ``metrics.json``, ``config.yaml`` and ``train_log.csv`` to ``out_dir``.
+writes ``point_cloud.ply``, ``metrics.json``, ``config.yaml`` and ``train_log.csv`` to ``out``.
 Given the same scene, config and seed it is deterministic, whether or not numba's on-disk kernel
 cache exists yet (each kernel holds all of its fast-math code itself, see
 ``render/numba_kernels.py``; ``tests/render/test_numba_cold_warm.py`` checks that the PLY files match),
@@ -36,6 +36,7 @@ from inpaint360gs.gs.loop import OptimizationLoop, SceneViews, Target
 from inpaint360gs.gs.optim import Params, learning_rates, means_lr
 from inpaint360gs.gs.strategy import DensifyStrategy
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import bool_argument, check_stage_call
 from inpaint360gs.io.atomic import atomic_path, write_text
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
@@ -161,6 +162,7 @@ class Trainer:
             "config": self.user_cfg.to_dict(),
             "scene": self.scene.name,
             "scene_content_sha256": self.fingerprint,
+            "scene_read_sha256": self.scene.read_fingerprint(),  # the images_<R>/ copies read at this resize too
             "resize": self.scene.resize,
             "train_views": [v.name for v in self.views],
         }
@@ -247,7 +249,7 @@ class Trainer:
         if mine == theirs:
             return None
         diff = [k for k in mine if mine[k] != theirs.get(k)]
-        if "scene_content_sha256" in diff:
+        if "scene_content_sha256" in diff or "scene_read_sha256" in diff:
             return "checkpoint was made on a scene with different content (sparse model or images differ); pass --overwrite to start afresh"
         if "config" in diff:
             a, b = mine["config"], theirs.get("config", {})
@@ -345,21 +347,21 @@ class Trainer:
 
 def train_stage(
     scene: Scene,
-    cfg: TrainConfig,
-    out_dir: str | Path,
+    out: str | Path,
+    cfg: TrainConfig | None = None,
     *,
     resume: bool = False,
     overwrite: bool = False,
     progress: bool = False,
     on_step: Callable[[int, Params], None] | None = None,
 ) -> TrainResult:
-    """Train 3DGS on ``scene``'s training views and write the run's outputs to ``out_dir``.
+    """Train 3DGS on ``scene``'s training views and write the run's outputs to ``out``.
 
     Args:
         scene: The scene; its sparse points initialise the Gaussians, its holdout views are evaluated.
-        cfg: Training settings (validated; ``schedule_scale`` applied).
-        out_dir: The run's folder (created when absent).
-        resume: Continue from ``out_dir/checkpoint.pt`` when it exists (same scene content and settings required).
+        out: The run's folder (created when absent).
+        cfg: Training settings (validated; ``schedule_scale`` applied); None: the defaults.
+        resume: Continue from ``out/checkpoint.pt`` when it exists (same scene content and settings required).
         overwrite: Start afresh over a previous run's files instead of refusing.
         progress: Show a progress bar.
         on_step: ``on_step(step, params)`` after every optimiser step (inspection and tests).
@@ -371,4 +373,6 @@ def train_stage(
         InputError: Invalid settings, a scene without sparse points, or a folder holding a previous
             run (or a checkpoint of other settings) that ``resume``/``overwrite`` do not allow to use.
     """
-    return Trainer(scene, cfg, out_dir, progress=progress, on_step=on_step).run(resume=resume, overwrite=overwrite)
+    check_stage_call("train_stage", scene, out, cfg, TrainConfig, overwrite=overwrite, progress=progress)
+    bool_argument(resume, "train_stage.resume")
+    return Trainer(scene, cfg or TrainConfig(), out, progress=progress, on_step=on_step).run(resume=resume, overwrite=overwrite)

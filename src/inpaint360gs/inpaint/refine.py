@@ -29,7 +29,7 @@ see :func:`refine` for which ones, and why each view is optimised on a crop arou
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import torch
@@ -43,65 +43,8 @@ from inpaint360gs.gs.loss import ssim_map
 from inpaint360gs.gs.optim import PARAM_NAMES, learning_rates, means_lr
 from inpaint360gs.gs.strategy import DensifyStrategy
 from inpaint360gs.inpaint.conditioned import InpaintedView
+from inpaint360gs.inpaint.config import RefineConfig  # noqa: F401  (defined with the stage's settings, importable here)
 from inpaint360gs.render.api import render
-
-
-@dataclass
-class RefineConfig:
-    """3D inpainting (Eq. 6); defaults are the paper's (supp. B)."""
-
-    variant: str = "paper"  # "paper" | "code": the authors' public code (0.8 / 0.0005 / 5000, L1 over the whole image)
-    iterations: int | None = None  # None: the variant's (2000 paper, 5000 code)
-    lambda_dssim: float | None = None  # λ1; None: the variant's (0.2 paper, 0.8 code)
-    lambda_lpips: float | None = None  # λ2; None: the variant's (0.005 paper, 0.0005 code; 1 with supervision "lpips")
-    supervision: str = "hybrid"  # "hybrid" (Eq. 6) | "mask": ablation e) | "lpips": Gaussian Grouping's (LPIPS in the mask, L1 outside)
-    # LPIPS network of the loss. AlexNet: a step's forward + backward through it is far cheaper on CPU than
-    # through VGG16 (results/README.md, "Metrics"); the evaluation uses VGG like the paper's code.
-    lpips_net: str = "alex"  # "alex" | "vgg"
-    lpips_margin: int = 8  # pixels around the mask's bounding box for the LPIPS crop
-    crop_margin_px: int = 16  # each view is optimised on its mask's bounding box grown by max(this, crop_margin x its size)
-    crop_margin: float = 0.25  # x the bounding box's size, >= 0
-    # A step optimises a window of at most this many pixels a side of its view's crop, centred on a
-    # random pixel of the mask (0: the whole crop): the cost of a step, dominated by LPIPS and SSIM,
-    # stays bounded for a large hole (SPIn-NeRF also takes its perceptual loss on patches). Crops
-    # smaller than this are used whole.
-    patch_px: int = 96  # pixels, >= 0
-    region_margin: float = 0.5  # Gaussians within this x the region's diagonal of it train (see refine)
-    # 3DGS adaptive density control of the Gaussians that train (densify_config): every 100 steps
-    # from the 100th until this share of the iterations, no opacity reset (a run this short has no
-    # time to recover from one). Off for the method (paper Sec. 3.5); on for the strong baseline.
-    densify: bool = False
-    densify_until: float = 0.5  # share of the iterations, in [0, 1]
-    densify_grad: float = 2e-4  # mean view-space gradient (NDC units of the view's crop) above which a Gaussian is cloned or split, > 0
-    seed: int = 0  # seeds the optimisation loop (views, patch centres)
-    backend: str = "auto"  # rasterizer backend: auto | torch | numba | gsplat
-
-    def resolved(self) -> RefineConfig:
-        """A copy with the variant's iterations and loss weights filled in; raises :class:`InputError`
-        for an unknown variant or supervision."""
-        if self.variant not in ("paper", "code"):
-            raise InputError(f"unknown 3D inpainting variant {self.variant!r} (paper, code)", setting="RefineConfig.variant")
-        if self.supervision not in ("hybrid", "mask", "lpips"):
-            raise InputError(f"unknown supervision {self.supervision!r} (hybrid, mask, lpips)", setting="RefineConfig.supervision")
-        if not 0.0 <= self.densify_until <= 1.0:
-            raise InputError(f"densify_until must be in [0, 1], got {self.densify_until}", setting="RefineConfig.densify_until")
-        if not self.densify_grad > 0:
-            raise InputError(f"densify_grad must be > 0, got {self.densify_grad}", setting="RefineConfig.densify_grad")
-        paper = self.variant == "paper"
-        lpips_weight = 1.0 if self.supervision == "lpips" else 0.005 if paper else 0.0005
-        return replace(
-            self,
-            iterations=(2000 if paper else 5000) if self.iterations is None else self.iterations,
-            lambda_dssim=(0.2 if paper else 0.8) if self.lambda_dssim is None else self.lambda_dssim,
-            lambda_lpips=lpips_weight if self.lambda_lpips is None else self.lambda_lpips,
-        )
-
-    def densify_config(self) -> DensifyConfig:
-        """The density control of a run of ``iterations`` steps (see ``densify``): 3DGS's thresholds,
-        clone or split every 100 steps after step 100 until ``densify_until`` of the run, prune the
-        nearly transparent ones, never reset opacities (so neither prune the large ones)."""
-        n = self.resolved().iterations
-        return DensifyConfig(grad_threshold=self.densify_grad, densify_from=100, densify_until=round(self.densify_until * n), densify_every=100, opacity_reset_every=n + 1)
 
 
 def _bbox(mask: torch.Tensor, margin: int) -> tuple[slice, slice]:

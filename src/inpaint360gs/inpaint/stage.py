@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -32,60 +32,18 @@ from inpaint360gs.core.support import STANDING
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.inpaint.conditioned import inpaint_views, reprojection_error
 from inpaint360gs.inpaint.init import depth_guided_init, naive_init
-from inpaint360gs.inpaint.inpainters import DEFAULT_DEPTH, DEFAULT_RGB, make_inpainter
-from inpaint360gs.inpaint.refine import RefineConfig, refine
+from inpaint360gs.inpaint.inpainters import make_inpainter
+from inpaint360gs.inpaint.config import InpaintConfig, check_inpaint_config  # InpaintConfig: defined with the other settings, importable here
+from inpaint360gs.inpaint.refine import refine
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_image, write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.render.api import render
-from inpaint360gs.views.unseen import TrainingVisibility, UnseenConfig, clean_mask, footprint, occluders, unseen_mask
-from inpaint360gs.views.virtual import VirtualViewsConfig, cameras_to_json, choose_trajectory, plane_depth, support_camera
-
-
-@dataclass
-class InpaintConfig:
-    """The inpainting stage; each switch off is one ablation of paper Tab. 3."""
-
-    views: str = "virtual"  # "virtual" | "training": ablation c)
-    masks: str = "unseen"  # "unseen": geometric NBS masks; "footprint": the removed objects' whole footprint (baseline ii)
-    condition: bool = True  # recursive conditioning; False: ablation d)
-    init: str = "depth"  # "depth": depth-guided initialisation; "naive": ablation b); "none": no new Gaussians (baseline ii)
-    rgb_inpainter: str = DEFAULT_RGB  # 2D colour inpainter by name (inpaint.inpainters registry)
-    depth_inpainter: str = DEFAULT_DEPTH  # 2D depth inpainter by name (same registry)
-    lama_onnx: str | None = None  # LaMa checkpoint (ONNX) when an inpainter is "lama"
-    occluders: bool = True  # take occluders out for inpainting, put them back after
-    occluder_min_pixels: int = 10  # an object occludes when it hides at least this many pixels of the removed ones in one view
-    # Start the recursion from a view straight above each removed object's footprint (the removal
-    # stage's support plane), filled with ``support_inpainter``: the support is seen rectified there
-    # (views.virtual.support_camera), so textures and straight borders continue across the hole,
-    # and every later view inherits that fill through the conditioning. False: the trajectory alone.
-    support_view: bool = True
-    support_inpainter: str = "shiftmap"  # 2D inpainter of the support view, by name
-    # With the removal's footprints, the scene's Gaussians that the 3D inpainting may adjust are those
-    # within this x the footprint's size around it (footprint_rows); without, those near the removed
-    # Gaussians (refine.RefineConfig.region_margin).
-    footprint_margin: float = 0.25  # x the footprint's size, >= 0
-    # A surface the removal reveals off the support plane is part of the region to fill (at its
-    # rendered depth), and new Gaussians are kept, within this x the footprint's size of the
-    # footprint's column; new Gaussians standing over the support in the column are dropped
-    # (fill_rows). 0: inside the column only; beyond it the rendered depth is the 3DGS's uncertain
-    # one and fill Gaussians put there show as smears from other views (docs/architecture.md,
-    # "What the removal emptied is filled on its support").
-    reveal_margin: float = 0.0  # x the footprint's size, >= 0
-    virtual: VirtualViewsConfig = field(default_factory=VirtualViewsConfig)  # step 1: the virtual cameras
-    unseen: UnseenConfig = field(default_factory=UnseenConfig)  # the unseen (to be filled) masks
-    refine: RefineConfig = field(default_factory=RefineConfig)  # the 3D inpainting (Eq. 6); its seed also seeds the 2D inpainters
-    backend: str = "auto"  # rasterizer backend: auto | torch | numba | gsplat
-
-
-def _check_config(cfg: InpaintConfig) -> None:
-    """The settings' names, before any work (the CLI's choices check them too)."""
-    for value, allowed, name in ((cfg.views, ("virtual", "training"), "views"), (cfg.masks, ("unseen", "footprint"), "masks"), (cfg.init, ("depth", "naive", "none"), "init")):
-        if value not in allowed:
-            raise InputError(f"unknown setting {value!r} ({', '.join(allowed)})", setting=f"InpaintConfig.{name}")
-    cfg.refine.resolved()
+from inpaint360gs.views.unseen import TrainingVisibility, clean_mask, footprint, occluders, unseen_mask
+from inpaint360gs.views.virtual import cameras_to_json, choose_trajectory, plane_depth, support_camera
 
 
 def _nothing_to_fill(model: Gaussians, removed: torch.Tensor, cameras: list, cfg: InpaintConfig, kind: str, removal) -> InputError:
@@ -236,7 +194,7 @@ def inpaint_scene(
     ``removal`` (the removal stage's folder) is what errors about the selection name; ``footprints``
     (:class:`inpaint360gs.core.support.Footprint`, from the removal) place the support views."""
     cfg = cfg or InpaintConfig()
-    _check_config(cfg)
+    check_inpaint_config(cfg)
     t = {}
     t0 = time.perf_counter()
     original = field_.gaussians.map(lambda x: x.detach())
@@ -463,7 +421,7 @@ def read_footprints(removed_dir: str | Path) -> list:
         raise InputError(f"unreadable footprints in the removal record ({type(e).__name__})", Path(removed_dir) / "removal.json") from None
 
 
-def inpaint_stage(field_: IdentityField, removed_dir: str | Path, scene: Scene, out: str | Path, cfg: InpaintConfig | None = None, *, overwrite: bool = False, progress: bool = False) -> dict:
+def inpaint_stage(scene: Scene, field_: IdentityField, removed_dir: str | Path, out: str | Path, cfg: InpaintConfig | None = None, *, overwrite: bool = False, progress: bool = False) -> dict:
     """The stage as ``inpaint360gs inpaint`` runs it: read the removal, inpaint, write ``out``.
 
     Args: ``field_`` the distillation output the removal was made from; ``removed_dir`` the removal
@@ -471,7 +429,11 @@ def inpaint_stage(field_: IdentityField, removed_dir: str | Path, scene: Scene, 
     Returns: what ``inpaint.json`` holds.
     Raises: :class:`InputError` for a non-empty ``out``, a removal or distillation of another scene
     (or not linked), or nothing to fill."""
+    check_stage_call("inpaint_stage", scene, out, cfg, InpaintConfig, overwrite=overwrite, progress=progress, folders={"removed_dir": removed_dir})
+    if not isinstance(field_, IdentityField):
+        raise InputError(f"expected an IdentityField (the distillation output), got {type(field_).__name__}", setting="inpaint_stage.field_")
     cfg = cfg or InpaintConfig()
+    check_inpaint_config(cfg)
     t0 = time.perf_counter()
     out = Path(out)
     if out.is_dir() and any(out.iterdir()) and not overwrite:  # before any work (atomic_dir checks again at the end)

@@ -12,6 +12,7 @@ umask asks for (``tempfile`` creates them private, 0600 / 0700).
 from __future__ import annotations
 
 import contextlib
+import errno
 import glob
 import os
 import re
@@ -84,6 +85,26 @@ def _signals_held() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, before)
 
 
+DISK_FULL_BYTES = 1 << 20  # a write failing with less than this free on its disk failed for want of space
+
+
+def _disk_full(e: BaseException, target: Path) -> OSError | None:
+    """The error to raise instead of ``e`` when writing ``target`` failed because its disk is full: an
+    ``OSError`` naming ``target`` (ENOSPC / EDQUOT without a file name, or any write error, such as
+    torch's ``RuntimeError`` from a checkpoint, while the disk has less than :data:`DISK_FULL_BYTES`
+    free); None for any other failure. The CLI shows it as one line and exit status 2."""
+    if isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT):
+        return OSError(e.errno, f"{e.strerror} (writing the output)", str(target))
+    if isinstance(e, (OSError, RuntimeError)):
+        try:
+            free = shutil.disk_usage(target.parent).free
+        except OSError:
+            return None
+        if free < DISK_FULL_BYTES:
+            return OSError(errno.ENOSPC, f"No space left on device ({free} bytes free on its disk when the write failed)", str(target))
+    return None
+
+
 def _remove_own_temporaries(folder: Path, prefix: str, suffix: str) -> None:
     """Remove this process's temporaries ``<prefix><random><suffix>`` in ``folder``. By name rather
     than by the path ``tempfile`` returned: an interruption (SIGINT, the CLI's SIGTERM exception)
@@ -111,6 +132,11 @@ def atomic_path(target: str | Path) -> Iterator[Path]:
         yield tmp_path
         _publish_mode(tmp_path, folder=False)
         os.replace(tmp_path, target)
+    except (OSError, RuntimeError) as e:
+        full = _disk_full(e, target)
+        if full is None:
+            raise
+        raise full from None
     finally:
         _remove_own_temporaries(target.parent, prefix, suffix)
 
@@ -140,7 +166,13 @@ def atomic_dir(target: str | Path, overwrite: bool = False) -> Iterator[Path]:
     prefix = f".{target.name}.{os.getpid()}."
     try:
         tmp = Path(tempfile.mkdtemp(prefix=prefix, suffix=".tmp", dir=target.parent))
-        yield tmp
+        try:
+            yield tmp
+        except (OSError, RuntimeError) as e:
+            full = _disk_full(e, target)
+            if full is None:
+                raise
+            raise full from None
         _publish_mode(tmp, folder=True)  # what it holds was created with ordinary (umask) modes
         with _signals_held():
             if target.exists():

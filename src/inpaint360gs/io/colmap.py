@@ -27,10 +27,27 @@ PINHOLE_MODELS = ("PINHOLE", "SIMPLE_PINHOLE")
 _MIN_RECORD = {"cameras.bin": 24, "images.bin": 73, "points3D.bin": 51, "rigs.bin": 8, "frames.bin": 8}
 
 
+def pycolmap_module():
+    """``pycolmap``, imported so that it changes no signal handling: its import installs glog's
+    failure handler for SIGTERM, which prints a native stack dump when a Python program using the
+    library is stopped; the handler Python had is put back (main thread only: elsewhere Python
+    cannot set handlers, and the CLI replaces it anyway, ``cli.common.install_signal_handlers``)."""
+    import signal
+    import threading
+
+    main = threading.current_thread() is threading.main_thread()
+    before = signal.getsignal(signal.SIGTERM) if main else None
+    import pycolmap
+
+    if main and before is not None:
+        signal.signal(signal.SIGTERM, before)
+    return pycolmap
+
+
 @contextlib.contextmanager
 def colmap_log(verbose: bool) -> Iterator[None]:
     """Silence COLMAP's INFO/WARNING log unless asked for."""
-    import pycolmap
+    pycolmap = pycolmap_module()
 
     old = pycolmap.logging.minloglevel
     pycolmap.logging.minloglevel = 0 if verbose else 2
@@ -46,7 +63,7 @@ def read_model(path: str | Path):
     Raises :class:`InputError` naming the file for a missing folder, missing files, a truncated or
     corrupt binary file, or anything pycolmap cannot parse.
     """
-    import pycolmap
+    pycolmap = pycolmap_module()
 
     path = Path(path)
     if not path.is_dir():
@@ -120,7 +137,7 @@ def image_camera(rec, image, where: str | Path) -> Camera:
 
 def to_pinhole(rec) -> None:
     """Rewrite SIMPLE_PINHOLE cameras as PINHOLE (fx = fy = f), the model the scene layout writes."""
-    import pycolmap
+    pycolmap = pycolmap_module()
 
     for cam in rec.cameras.values():
         if cam.model_name == "SIMPLE_PINHOLE":
@@ -149,7 +166,7 @@ def build_model(
     every image camera 1 (the intrinsics of ``cameras[0]``, as in the scene layout), else one camera
     per image. ``camera_params`` overrides the intrinsics for ``camera_model``.
     """
-    import pycolmap
+    pycolmap = pycolmap_module()
 
     def params_of(c: Camera) -> list[float]:
         if camera_params is not None:

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.files import path_problem, sha256_file
+from inpaint360gs.core.files import parse_json, path_problem, sha256_file
 from inpaint360gs.core.layout import RENDER_COLOR_DIR, STAGE_RECORDS
 
 KEY = "provenance"
@@ -98,7 +98,8 @@ def make(stage: str, scene, inputs: dict[str, str | None], settings: object = No
     None entries are left out) with ``settings`` (any JSON-able value; part of the identity only)."""
     entry = scene_entry(scene) if scene is not None else None
     ins = {k: v for k, v in sorted(inputs.items()) if v is not None}
-    what = [stage, None if entry is None else [entry["content_sha256"], entry["resize"]], ins, settings]
+    # every file the stage read through the scene (images_<R>/, masks), not only the resize-independent content
+    what = [stage, None if entry is None else [scene.read_fingerprint(), entry["resize"]], ins, settings]
     identity = hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()
     return {"stage": stage, "identity": identity, "scene": entry, "inputs": ins}
 
@@ -121,10 +122,7 @@ def read(path: str | Path, stage: str | None = None) -> Record | None:
     problem = path_problem(path)
     if problem is not None:
         raise InputError(problem, path)
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise InputError(f"not valid JSON ({e})", path) from None
+    data = parse_json(path)
     if not isinstance(data, dict):
         return None  # e.g. an association's objects.json written as a bare list of ids
     prov = data.get(KEY)

@@ -29,8 +29,9 @@ import torch
 from inpaint360gs.core import layout
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError, TestPixelAccessError
-from inpaint360gs.core.files import path_problem, read_json_object
+from inpaint360gs.core.files import inside, path_problem, read_json_object, sha256_file
 from inpaint360gs.core.layout import Split
+from inpaint360gs.core.settings import check_value
 from inpaint360gs.io.colmap import image_camera, read_model
 from inpaint360gs.io.images import binary_mask, find_mask, image_size, read_image, read_mask, resize_image, resize_mask, to_float
 
@@ -158,15 +159,29 @@ class Scene:
         if self._fingerprint is not None:
             return self._fingerprint
         h = hashlib.sha256()
-        sparse = self.root / layout.SPARSE_DIR
+        sparse = inside(self.root, layout.SPARSE_DIR)
         for p in sorted(sparse.iterdir()):
             if p.is_file():
-                h.update(p.name.encode() + b"\0" + p.read_bytes())
+                h.update(p.name.encode() + b"\0" + inside(self.root, p.relative_to(self.root)).read_bytes())
         for v in self.views:
             if not v.is_test:
-                h.update(v.name.encode() + b"\0" + (self.root / layout.IMAGES_DIR / v.name).read_bytes())
+                h.update(v.name.encode() + b"\0" + inside(self.root, f"{layout.IMAGES_DIR}/{v.name}").read_bytes())
         self._fingerprint = h.hexdigest()
         return self._fingerprint
+
+    def read_fingerprint(self, extra: Sequence[str | Path] = ()) -> str:
+        """sha256 over every file this loaded scene's stages read at its ``resize``: :meth:`fingerprint`,
+        the ``images_<R>/`` copies its non-test views read, the mask files it loaded (names and
+        bytes), and ``extra`` (files besides, e.g. ``gt/`` masks the oracle segmenter reads). What a
+        rerun compares (``inpaint360gs run``'s signatures, a 3DGS checkpoint), so that a changed
+        input reruns what depends on it (docs/architecture.md, "Reliability")."""
+        h = hashlib.sha256(self.fingerprint().encode())
+        files = [v.image_path for v in self.views if not v.is_test and v.image_path != self.root / layout.IMAGES_DIR / v.name]
+        files += [p for kind in sorted(self.masks) for _, p in sorted(self.masks[kind].items())]
+        for p in [*files, *map(Path, extra)]:
+            rel = p.relative_to(self.root) if p.is_relative_to(self.root) else p
+            h.update(str(rel).encode() + b"\0" + sha256_file(p).encode())
+        return h.hexdigest()
 
     @property
     def extent(self) -> float:
@@ -184,16 +199,6 @@ def nerf_radius(cameras: Sequence[Camera]) -> float:
     return 1.1 * d if d > 0 else 1.0
 
 
-def _disk_images(images_dir: Path) -> set[str]:
-    """Image files under images/ (relative names, subfolders included; hidden files skipped)."""
-    out = set()
-    for p in images_dir.rglob("*"):
-        rel = p.relative_to(images_dir)
-        if p.is_file() and layout.is_image_name(p.name) and not any(s.startswith(".") for s in rel.parts):
-            out.add(rel.as_posix())
-    return out
-
-
 def load_scene(
     root: str | Path,
     *,
@@ -208,20 +213,29 @@ def load_scene(
     ``llffhold <= 0`` puts every non-test view into training. Raises ``InputError`` naming the file
     for any inconsistency (see the module docstring for the unregistered-image policy).
     """
+    if isinstance(root, os.PathLike):
+        root = os.fspath(root)
+    if not isinstance(root, str) or not root.strip() or "\0" in root:
+        raise InputError(f"expected a scene folder's path, got {type(root).__name__} {root!r:.40}", setting="scene")
     root = Path(root)
+    check_value(resize, int, "resize")
+    check_value(llffhold, int, "llffhold")
+    if resize < 1:
+        raise InputError(f"resize factor must be an integer >= 1, got {resize}", setting="resize")
+    if unregistered not in ("error", "warn"):
+        raise InputError(f"expected 'error' or 'warn', got {unregistered!r:.40}", setting="unregistered")
     if not root.is_dir():
         raise InputError("scene folder not found", root)
-    if int(resize) != resize or resize < 1:
-        raise InputError(f"resize factor must be an integer >= 1, got {resize}", setting="resize")
-    resize = int(resize)
-    images_dir = root / layout.IMAGES_DIR
+    images_dir = inside(root, layout.IMAGES_DIR)  # every file read below: inside the scene, links included
     if not images_dir.is_dir():
         raise InputError("missing images/ folder", images_dir)
-    sparse = root / layout.SPARSE_DIR
+    sparse = inside(root, layout.SPARSE_DIR)
+    for f in sorted(sparse.iterdir()) if sparse.is_dir() else ():
+        inside(root, f.relative_to(root))
     rec = read_model(sparse)
     ext = ".bin" if (sparse / "cameras.bin").is_file() else ".txt"  # which files read_model read
 
-    scaled_dir = root / layout.scaled_images_dir(resize)
+    scaled_dir = inside(root, layout.scaled_images_dir(resize))
     use_scaled = resize > 1 and scaled_dir.is_dir()
 
     entries = []
@@ -229,14 +243,14 @@ def load_scene(
         if not im.has_pose:
             continue
         full = image_camera(rec, im, sparse / f"cameras{ext}")
-        src = images_dir / im.name
+        src = inside(root, f"{layout.IMAGES_DIR}/{im.name}")
         problem = path_problem(src)
         if problem is not None:
             what = "missing on disk" if problem == "file not found" else f"not readable ({problem})"
             raise InputError(f"image {im.name} is registered in sparse/0 but {what}", src)
         camera = full.scaled(resize) if resize > 1 else full
         if use_scaled:
-            path = scaled_dir / im.name
+            path = inside(root, f"{scaled_dir.name}/{im.name}")
             if not path.is_file():
                 raise InputError(f"image {im.name} missing from {scaled_dir.name}/ (complete or delete that folder)", path)
             if image_size(path) != (camera.width, camera.height):
@@ -250,7 +264,10 @@ def load_scene(
         entries.append((im.name, camera, path, int(image_id), int(im.camera_id), resize > 1 and not use_scaled, (full.width, full.height)))
 
     registered = {e[0] for e in entries}
-    extra = sorted(_disk_images(images_dir) - registered)
+    twins = layout.same_stem(registered)
+    if twins:
+        raise InputError(f"views {twins[0]} and {twins[1]} share the stem {Path(twins[0]).stem!r}, which names every per-view output: rename one", images_dir / twins[1])
+    extra = sorted(layout.image_files(images_dir) - registered)
     if extra:
         msg = f"{len(extra)} image(s) on disk are not registered in sparse/0 (first: {extra[0]})"
         if unregistered == "error":
@@ -277,14 +294,14 @@ def load_scene(
         raise InputError(f"{int(bad.sum())} sparse point(s) have non-finite coordinates (first: point {first})", sparse / f"points3D{ext}")
 
     info: dict = {}
-    info_path = root / layout.SCENE_JSON
+    info_path = inside(root, layout.SCENE_JSON)
     if os.path.lexists(info_path):  # a folder, a named pipe or a broken link there is an error, not "no scene.json"
         info = read_json_object(info_path)
 
     kinds = MASK_KINDS if load_masks is True else (() if load_masks is False else tuple(load_masks))
     masks: dict[str, dict[str, Path]] = {}
     for kind in kinds:
-        mdir = root / kind
+        mdir = inside(root, kind)
         if not mdir.is_dir():
             continue
         found = {}
@@ -292,6 +309,7 @@ def load_scene(
             p = find_mask(mdir, [v.name])
             if p is None:
                 continue
+            p = inside(root, p.relative_to(root))
             size = image_size(p)
             full_size = (rec.cameras[v.camera_id].width, rec.cameras[v.camera_id].height)
             if size not in (full_size, (v.camera.width, v.camera.height)):

@@ -47,6 +47,7 @@ def psnr_outside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, g
 class TextureRatios:
     laplacian: float  # mean |Laplacian| inside the hole / in the ring
     luminance: float  # mean luminance inside / in the ring
+    ring_laplacian: float = float("nan")  # mean |Laplacian| in the ring itself (how much texture there is to compare with)
 
 
 def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> TextureRatios | None:
@@ -64,17 +65,30 @@ def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> Te
     return TextureRatios(
         laplacian=float(lap[hole].mean() / ring_lap) if ring_lap > 0 else float("nan"),
         luminance=float(luma[hole].mean() / ring_luma) if ring_luma > 0 else float("nan"),
+        ring_laplacian=float(ring_lap),
     )
 
 
-def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1) -> tuple[float, int]:
+def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1,
+                   reference: float | None = None) -> tuple[float, int]:  # fmt: skip
     """(opacity-weighted share, count) of the Gaussians in the footprint column (any height from
     one object height below the plane to twice above) that stand higher above the plane than
-    ``height_frac`` x the object's height. 0 when the column holds nothing."""
+    ``height_frac`` x the object's height. The share is of everything in the column (0 when it
+    holds nothing), or, given ``reference`` (:func:`standing_mass` of the model before the removal:
+    the object), of that: the part of the object still standing, which an emptied column (the
+    removal takes the support under the object too) cannot inflate."""
     h = footprint.heights(means)
     col = footprint.inside(means) & (h > -footprint.height) & (h < 2.0 * footprint.height)
     w = opacities[col].astype(np.float64)
-    if not w.sum() > 0:
-        return 0.0, 0
     up = h[col] > height_frac * footprint.height
-    return float(w[up].sum() / w.sum()), int(up.sum())
+    total = reference if reference is not None else w.sum()
+    if not total > 0:
+        return 0.0, 0
+    return float(w[up].sum() / total), int(up.sum())
+
+
+def standing_mass(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1) -> float:
+    """The opacity summed over what stands in the footprint column (as :func:`standing_share` counts it)."""
+    h = footprint.heights(means)
+    up = footprint.inside(means) & (h > height_frac * footprint.height) & (h < 2.0 * footprint.height)
+    return float(opacities[up].astype(np.float64).sum())

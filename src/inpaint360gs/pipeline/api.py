@@ -4,16 +4,18 @@ a folder written by one is picked up by the other, stage by stage."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Iterable, Union
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.layout import LLFFHOLD, RunLayout
+from inpaint360gs.core.settings import check_value
+from inpaint360gs.io.arguments import path_argument
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.io.scene import load_scene as read_scene
-from inpaint360gs.pipeline.presets import DEFAULT_PRESET, get_preset
-from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner
+from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS, get_preset
+from inpaint360gs.pipeline.run import SECONDS_KEY, STAGES, RunConfig, Runner, check_run_arguments
 from inpaint360gs.remove.select import Click
 
 ClickLike = Union[Click, str, tuple]
@@ -39,6 +41,7 @@ class RemovalResult:
     stages: dict[str, str]
     seconds: dict[str, float]
     config: RunConfig = field(repr=False)
+    check: dict | None = None  # the run's check of its result (``check.json``: passed, failed checks, each value and limit)
 
     @property
     def layout(self) -> RunLayout:
@@ -66,11 +69,18 @@ def _click(c: ClickLike) -> Click:
         return c
     if isinstance(c, str):
         return Click.parse(c)
-    try:
-        view, x, y = c
-        return Click(str(view), int(x), int(y))
-    except (TypeError, ValueError):
-        raise InputError(f"click {c!r} is not (view, x, y) nor 'VIEW:X,Y'", "clicks") from None
+    if not isinstance(c, (tuple, list)) or len(c) != 3:
+        raise InputError(f"click {c!r:.60} is not (view, x, y) nor 'VIEW:X,Y'", setting="clicks")
+    return Click.make(*c)
+
+
+def _listed(value: object, name: str) -> list:
+    """The items of a list-like argument (a list, tuple or other iterable; not a string, a mapping or one number)."""
+    if value is None:
+        return []
+    if isinstance(value, (str, bytes, dict)) or not isinstance(value, Iterable):
+        raise InputError(f"expected a list, got {type(value).__name__} {value!r:.40}", setting=name)
+    return list(value)
 
 
 def remove_object(
@@ -82,8 +92,9 @@ def remove_object(
     preset: str | RunConfig = DEFAULT_PRESET,
     model: str | Path | None = None,
     until: str = STAGES[-1],
-    seed: int = 0,
+    seed: int | None = None,
     progress: bool = False,
+    accept: bool = False,
 ) -> RemovalResult:
     """Remove the clicked objects from ``scene`` and inpaint what they hid (paper Alg. 1), into ``out``
     (one sub-folder per stage; stages already done with the same inputs and settings are skipped).
@@ -92,17 +103,32 @@ def remove_object(
     earlier run's); ``clicks`` on the object, each ``(view, x, y)``, ``"VIEW:X,Y"`` or a
     :class:`Click`, in the pixels of ``images/`` (default: ``scene.json``'s clicks); ``ids`` object ids
     to remove besides; ``preset`` ``"cpu"``, ``"gpu"`` or ``"paper"`` (:mod:`.presets`), or a whole
-    :class:`RunConfig`; ``model`` a trained 3DGS PLY of the scene (skips training); ``until`` the last
-    stage to run (one of :data:`STAGES`); ``seed`` the seed of every stage (with a preset name);
-    ``progress`` show progress bars.
+    :class:`RunConfig` (a preset changed with ``dataclasses.replace``); ``model`` a trained 3DGS PLY of
+    the scene (skips training); ``until`` the last stage to run (one of :data:`STAGES`); ``seed`` the
+    seed of every stage (None: the preset's, 0); ``progress`` show progress bars; ``accept`` keep a
+    result that fails the run's own check.
     Returns: a :class:`RemovalResult`.
     Raises: :class:`InputError` for a bad scene, click, preset, model, stage or output folder, and when
-    a click selects nothing (the stages before the failing one are kept)."""
+    a click selects nothing (the stages before the failing one are kept);
+    :class:`inpaint360gs.core.errors.CheckFailedError` when the result fails the run's own check
+    (``OUT/check.json``, ``OUT/check.png``; the outputs are kept) and ``accept`` is false."""
+    # the front door: every argument checked before any work (docs/architecture.md, "Reliability")
+    path_argument(out, "out")
+    if not isinstance(preset, (str, RunConfig)):
+        raise InputError(f"expected a preset's name ({', '.join(PRESETS)}) or a RunConfig, got {type(preset).__name__}", setting="preset")
+    cfg = preset if isinstance(preset, RunConfig) else get_preset(preset)
+    if seed is not None:
+        check_value(seed, int, "seed")
+        cfg = replace(cfg, seed=seed)
+    if not isinstance(until, str) or until not in STAGES:
+        raise InputError(f"unknown stage {until!r:.40} (one of {', '.join(STAGES)})", setting="until")
+    clicks, ids = [_click(c) for c in _listed(clicks, "clicks")], _listed(ids, "ids")
+    check_run_arguments(out, cfg, model=model, clicks=clicks, ids=ids, progress=progress, accept=accept)
     if not isinstance(scene, Scene):
-        scene = load_scene(scene)
-    cfg = preset if isinstance(preset, RunConfig) else get_preset(preset).run_config(seed=seed)
-    runner = Runner(scene, out, cfg, model=model, clicks=[_click(c) for c in clicks or []], ids=list(ids or []), progress=progress)
+        scene = load_scene(path_argument(scene, "scene"))
+    runner = Runner(scene, out, cfg, model=model, clicks=clicks, ids=ids, progress=progress, accept=accept)
     done = dict(runner.run(until))
     seconds = {s: t for s, t in runner.record.get(SECONDS_KEY, {}).items() if s in done}
-    return RemovalResult(out=runner.layout.root, stages=done, seconds=seconds, config=cfg)
+    check = runner.check.to_json() if runner.check is not None else None
+    return RemovalResult(out=runner.layout.root, stages=done, seconds=seconds, config=cfg, check=check)
 

@@ -25,7 +25,25 @@ class RemovalConfig:
     protect_support: float | None = 0.008  # the hull keeps background Gaussians within this height (x R) of the support plane (None: off)
     support_column: float | None = 0.01  # step 3: background Gaussians hanging below the removed ones, steps of this (x R) (None: off)
     footprint_margin: float | None = 0.05  # step 4: the footprint column, the outline grown by this x the footprint's size (None: off)
-    footprint_depth: float = 0.1  # step 4: the column starts this x the object's height below the support plane
+    footprint_depth: float = 1.0  # step 4: the column starts this x the object's height below the support plane (below it, inside the outline, only the hole shows it)
+    column_silhouette: float | None = 0.5  # step 4: over the object's top, a Gaussian goes when its centre lies in the object's silhouette in this share of the views showing it (None: all go)
     support_band: float = 0.05  # step 4: selected Gaussians within this x the object's height of the plane ...
     support_reach: float = 0.25  # ... farther than this x the footprint's size from its outline, in the support's colours around it, are support: they stay
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
+
+    def validate(self) -> RemovalConfig:
+        """Check every setting's type and range before any work; returns ``self``. Raises
+        :class:`~inpaint360gs.core.errors.InputError` naming the setting (``RemovalConfig.threshold``)."""
+        from inpaint360gs.core.errors import InputError
+        from inpaint360gs.core.settings import check_fields
+
+        check_fields(self)
+        shares = ("threshold", "min_part", "protect_background", "mask_share", "column_silhouette")  # in [0, 1]
+        for name, value in vars(self).items():
+            if value is None or isinstance(value, bool):
+                continue
+            if name in shares and not 0 <= value <= 1:
+                raise InputError(f"a share lies in [0, 1], got {value}", setting=f"RemovalConfig.{name}")
+            if value < 0 or (name in ("outlier_k", "link", "support_column", "mask_share") and value == 0):
+                raise InputError(f"must be {'> 0' if name in ('outlier_k', 'link', 'support_column', 'mask_share') else '>= 0'}, got {value}", setting=f"RemovalConfig.{name}")
+        return self

@@ -102,13 +102,18 @@ def upright(gaussians: Gaussians, up: np.ndarray) -> np.ndarray:
 
 
 def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarray, bodies: list[np.ndarray], keep: np.ndarray,
-                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict, colours: np.ndarray | None = None) -> tuple[np.ndarray, list]:  # fmt: skip
+                      up: np.ndarray | None, cfg: RemovalConfig, counts: dict, colours: np.ndarray | None = None,
+                      silhouette_share=None) -> tuple[np.ndarray, list]:  # fmt: skip
     """Step 4 (``RemovalConfig.footprint_margin``): ``remove`` plus every Gaussian in each object's
     footprint column (not those in ``keep``: other objects), minus the support Gaussians the
     selection took outside it. ``bodies``: per object, what steps 1-2 took; ``up`` a hint of the
     support's normal (None: the cameras' up is not known and the column is skipped); ``colours``
-    (N, 3) in [0, 1], None = every low selected Gaussian far enough out counts as support. Returns
-    the new flags and the footprints found; ``counts`` records what the step did (or why it did not)."""
+    (N, 3) in [0, 1], None = every low selected Gaussian far enough out counts as support.
+    ``silhouette_share(indices, body) -> (M,)``: the share of the training views showing each
+    Gaussian in which its centre lies in the silhouette of ``body``; given, a Gaussian of the column
+    higher than the object goes only when that share reaches ``cfg.column_silhouette`` (None: the
+    whole column to its top). Returns the new flags and the footprints found; ``counts`` records
+    what the step did (or why it did not)."""
     from inpaint360gs.core.support import STANDING, object_footprint
 
     remove = remove.copy()
@@ -124,12 +129,22 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         h = fp.heights(means)
         d = fp.distance(means)
         column = (d <= cfg.footprint_margin * fp.size) & (h > -cfg.footprint_depth * fp.height) & (h <= FOOTPRINT_TOP * fp.height) & ~keep
+        # over the object's top, a faint Gaussian is the object's appearance when the views see it in
+        # front of the object; one whose centre lies off its silhouette is the background's (a floater
+        # that colours the room or the table beyond the footprint in the other views): it stays
+        high = np.flatnonzero(column & ~remove & (h > fp.height))
+        dropped = 0
+        if silhouette_share is not None and cfg.column_silhouette is not None and len(high):
+            off = silhouette_share(high, body) < cfg.column_silhouette
+            column[high[off]] = False
+            dropped = int(off.sum())
         low = np.abs(h) <= cfg.support_band * fp.height
         support = remove & body & (d > cfg.support_reach * fp.size) & low
         ring = ~remove & low & (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
         if colours is not None and support.any():
             support[support] = support_coloured(colours[support], colours[ring])
-        counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size})
+        counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size,
+                                                   "above_off_silhouette": dropped})  # fmt: skip
         remove = (remove | column) & ~support
         # The object's own low parts (a flat base, a rim lying on the support: below the outline's
         # standing share, not in the support's colours) covered support that is now empty: the

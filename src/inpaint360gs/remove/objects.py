@@ -54,12 +54,15 @@ def remove_objects(
     radius: float = 0.0,
     up: np.ndarray | None = None,
     grown: list[np.ndarray] | None = None,
+    views: list[View] | None = None,
+    backend: str = "auto",
 ) -> Removal:
     """Remove the objects ``object_ids`` from the field's Gaussians (steps 1-4 of the module docstring);
     ``heights`` (N,) above the support plane and the orbit ``radius`` enable ``protect_support``,
     with the plane's normal ``up`` also ``support_column``. ``grown``: (N,) bool sets of Gaussians
     selected by a click where the field knows no object (:func:`.select.select`), removed like an
-    object whose step 1 took them."""
+    object whose step 1 took them. ``views``: the training views, for step 4's silhouette test
+    over the object's top (``RemovalConfig.column_silhouette``; None: no test)."""
     cfg = cfg or RemovalConfig()
     grown = list(grown or [])
     known = set(field_.object_ids) - {0}
@@ -110,9 +113,41 @@ def remove_objects(
     if cfg.footprint_margin is not None:
         opac = field_.gaussians.opacities.detach().cpu().double().numpy()
         colours = (SH_C0 * field_.gaussians.sh0[:, 0].detach().cpu().double().numpy() + 0.5).clip(0.0, 1.0)
-        remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts, colours)
+        share = silhouette_share(field_.gaussians, views, backend) if views else None
+        remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts, colours, share)
     mask = torch.from_numpy(remove)
     return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts, footprints)
+
+
+def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto", grow_px: int = 2):
+    """``share(indices, body) -> (M,)``: for the Gaussians ``indices`` of ``model``, the share of the
+    ``views`` whose frame holds a Gaussian's centre (in front of the camera) in which that centre
+    lies in the silhouette of the Gaussians ``body`` ((N,) bool; drawn as the fill masks are, grown
+    by ``grow_px``); 0 where no view holds it."""
+    import cv2
+
+    means = model.means.detach().double().numpy()
+    kernel = np.ones((2 * grow_px + 1, 2 * grow_px + 1), np.uint8)
+
+    def share(indices: np.ndarray, body: np.ndarray) -> np.ndarray:
+        masks = fill_masks(model, torch.from_numpy(np.asarray(body, dtype=bool)), views, 0.5, backend)
+        inside = np.zeros(len(indices))
+        seen = np.zeros(len(indices))
+        X = means[indices]
+        for v in views:
+            cam = v.camera
+            xc = X @ cam.R.double().numpy().T + cam.t.double().numpy()
+            z = xc[:, 2]
+            front = z > 1e-6
+            u = np.floor(cam.fx * xc[:, 0] / np.where(front, z, 1.0) + cam.cx).astype(np.int64)
+            w = np.floor(cam.fy * xc[:, 1] / np.where(front, z, 1.0) + cam.cy).astype(np.int64)
+            ok = front & (u >= 0) & (u < cam.width) & (w >= 0) & (w < cam.height)
+            sil = cv2.dilate(masks[v.name].astype(np.uint8), kernel).astype(bool)
+            seen += ok
+            inside[ok] += sil[w[ok], u[ok]]
+        return np.where(seen > 0, inside / np.maximum(seen, 1), 0.0)
+
+    return share
 
 
 @torch.no_grad()

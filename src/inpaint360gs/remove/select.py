@@ -18,6 +18,8 @@ told from the rest of the scene is refused with the reason.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,6 +39,23 @@ class Click:
     view: str
     x: int
     y: int
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.view, str) or not self.view.strip():
+            raise InputError(f"a click's view is a view's name, got {self.view!r:.40}", setting="clicks")
+        for v in (self.x, self.y):
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise InputError(f"a click's pixel is two whole numbers, got {v!r:.40}", setting="clicks")
+
+    @staticmethod
+    def make(view: object, x: object, y: object, where: str | Path | None = None) -> "Click":
+        """A click from loose values (a JSON file's, a tuple's): ``x`` and ``y`` whole finite numbers
+        (``3.0`` is taken, ``3.5``, ``inf``, ``"3"`` and ``True`` are not); :class:`InputError` naming
+        ``where`` (or the setting ``clicks``) otherwise."""
+        ok = isinstance(view, str) and view.strip() and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v == int(v) for v in (x, y))
+        if not ok:
+            raise InputError(f"click ({view!r:.40}, {x!r:.20}, {y!r:.20}) is not a view's name and a pixel of two whole numbers", where, setting=None if where else "clicks")
+        return Click(view, int(x), int(y))
 
     @staticmethod
     def parse(text: str) -> "Click":
@@ -72,23 +91,57 @@ class ClickSelection:
     gaussians: np.ndarray | None = None
 
 
+def check_selection(clicks: object, ids: object) -> None:
+    """The types of a selection, before any work: ``clicks`` None or a list of :class:`Click`,
+    ``ids`` None or a list of whole numbers in 1..255 (``associate.config.MAX_OBJECTS``; 0 is the
+    background). :class:`InputError` naming ``clicks`` or ``ids``."""
+    from inpaint360gs.associate.config import MAX_OBJECTS
+
+    if clicks is not None and not (isinstance(clicks, (list, tuple)) and all(isinstance(c, Click) for c in clicks)):
+        raise InputError(f"expected a list of clicks, got {clicks!r:.60}", setting="clicks")
+    if ids is not None:
+        if not isinstance(ids, (list, tuple)):
+            raise InputError(f"expected a list of object ids, got {ids!r:.60}", setting="ids")
+        for i in ids:
+            if isinstance(i, bool) or not isinstance(i, int) or not 1 <= i <= MAX_OBJECTS:
+                raise InputError(f"an object id is a whole number in 1..{MAX_OBJECTS}, got {i!r:.40}", setting="ids")
+
+
+def clicks_from_json(entries: object, where: str | Path) -> list[Click]:
+    """The clicks a ``scene.json`` names (``clicks``: a list of ``{view, x, y}``), as a user would give
+    them: ``view`` a name, ``x`` and ``y`` whole numbers. :class:`InputError` naming ``where`` for
+    anything else (a coordinate that is not finite, a fraction, a string); ``inpaint360gs run`` and
+    ``validate`` read them here, so they agree on what is a click."""
+    if not isinstance(entries, list) or not all(isinstance(c, dict) for c in entries):
+        raise InputError("clicks must be a list of {view, x, y}", where)
+    return [Click.make(c.get("view"), c.get("x"), c.get("y"), where) for c in entries]
+
+
+def click_problem(c: Click, views: Mapping[str, tuple[int, int, bool]]) -> str | None:
+    """Why the click ``c`` cannot select anything before the field exists, or None: ``views`` maps
+    each registered view's name to (width, height, is a test_ view) of its image in ``images/``.
+    The rule of :func:`check_clicks` and ``validate``."""
+    name = c.view if c.view in views else next((n for n in views if Path(n).stem == c.view), None)
+    if name is None:
+        return f"click {c}: the scene has no view {c.view!r}"
+    w, h, test = views[name]
+    if test:
+        return f"click {c}: {name} is an evaluation (test_) view; click on a training view"
+    if not (0 <= c.x < w and 0 <= c.y < h):
+        return f"click {c} is outside the {w}x{h} image (clicks are in the coordinates of images/)"
+    return None
+
+
 def check_clicks(scene: Scene, clicks: list[Click], where: str | Path | None = None) -> list[View]:
     """The view of each click; :class:`InputError` for an unknown view, an evaluation (``test_``) view
-    or a pixel outside the image (what can be checked before the field exists). ``where``: where
-    the clicks came from, named in the error."""
-    views = []
+    or a pixel outside the image (what can be checked before the field exists, :func:`click_problem`).
+    ``where``: where the clicks came from, named in the error."""
+    sizes = {v.name: (*(v.full_size or (v.camera.width, v.camera.height)), v.is_test) for v in scene.views}
     for c in clicks:
-        try:
-            view = scene.view(c.view)
-        except InputError:
-            raise InputError(f"click {c}: the scene has no view {c.view!r}", scene.root) from None
-        if view.is_test:
-            raise InputError(f"click {c}: {view.name} is an evaluation (test_) view; click on a training view", scene.root)
-        w, h = view.full_size or (view.camera.width, view.camera.height)
-        if not (0 <= c.x < w and 0 <= c.y < h):
-            raise InputError(f"click {c} is outside the {w}x{h} image (clicks are in the coordinates of images/)", where, setting=None if where else "clicks")
-        views.append(view)
-    return views
+        problem = click_problem(c, sizes)
+        if problem is not None:
+            raise InputError(problem, where, setting=None if where else "clicks")
+    return [scene.view(c.view) for c in clicks]
 
 
 def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click], *, backend: str = "auto") -> list[int]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -16,14 +16,16 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.metrics import amcr
+from inpaint360gs.remove.check import SelectionCheck, assess_selection
 from inpaint360gs.remove.config import RemovalConfig
-from inpaint360gs.remove.objects import fill_masks, remove_objects
-from inpaint360gs.remove.select import Click, select, support_heights
+from inpaint360gs.remove.objects import Removal, fill_masks, remove_objects
+from inpaint360gs.remove.select import Click, ClickSelection, check_selection, select, support_heights
 
 
 def load_field(folder: str | Path, scene: Scene) -> IdentityField:
@@ -46,28 +48,25 @@ def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     return field_
 
 
-def remove_stage(
-    field_: IdentityField,
-    scene: Scene,
-    out: str | Path,
-    *,
-    clicks: list[Click] | None = None,
-    ids: list[int] | None = None,
-    cfg: RemovalConfig | None = None,
-    backend: str = "auto",
-    overwrite: bool = False,
-    meta: dict | None = None,
-) -> dict:
-    """Select (clicks and/or ids), remove, write ``out`` (docs/architecture.md, "Stage outputs").
+@dataclass
+class RemovalPlan:
+    """What a removal will take, before anything is written: the clicks' selections, the object ids,
+    the removal itself and the check that it is an object (:mod:`.check`)."""
 
-    Args: ``field_`` the distillation output; ``clicks`` on the object, in ``images/`` pixels; ``ids``
-    object ids to remove besides; ``cfg`` None = defaults; ``backend`` the rasterizer (:func:`render`);
-    ``overwrite`` replace a non-empty ``out``; ``meta`` extra keys for ``removal.json``.
-    Returns: what ``removal.json`` holds.
-    Raises: :class:`InputError` for a non-empty ``out`` or a click that selects nothing."""
+    picked: list[ClickSelection]
+    targets: list[int]
+    removal: Removal
+    check: SelectionCheck
+    support_note: str
+    masks: dict[str, np.ndarray]  # per training view: the pixels to fill (the removed Gaussians' rendered footprint)
+
+
+def plan_removal(field_: IdentityField, scene: Scene, *, clicks: list[Click] | None = None, ids: list[int] | None = None,
+                 cfg: RemovalConfig | None = None, backend: str = "auto") -> RemovalPlan:  # fmt: skip
+    """Select (clicks and/or ids), remove in memory and check the selection; writes nothing (the
+    viewer and :func:`remove_stage` share it). Raises :class:`InputError` for a click that selects
+    nothing or an unknown id."""
     cfg = cfg or RemovalConfig()
-    check_output_dir(out, overwrite)  # before any work
-    t0 = time.perf_counter()
     clicks = list(clicks or [])
     picked = select(field_, scene, clicks, backend=backend)
     targets = [p.object_id for p in picked if p.object_id is not None] + list(ids or [])
@@ -75,9 +74,47 @@ def remove_stage(
     grown = [p.gaussians for p in picked if p.gaussians is not None]
     needs_plane = cfg.protect_support is not None or cfg.support_column is not None or cfg.footprint_margin is not None
     heights, radius, support_note, up = support_heights(field_, scene) if needs_plane else (None, 0.0, "support guard off", None)
-    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up, grown=grown)
-    views = scene.train_views
-    masks = fill_masks(field_.gaussians, res.removed_mask, views, cfg.mask_share, backend)
+    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up, grown=grown, views=scene.train_views, backend=backend)
+    masks = fill_masks(field_.gaussians, res.removed_mask, scene.train_views, cfg.mask_share, backend)
+    # ids only: no click to place the selection by; its size, support and backdrop tests still hold
+    check = assess_selection(field_, scene, res.removed_mask.numpy(), clicks, heights=heights, radius=radius, masks=masks)
+    return RemovalPlan(picked, targets, res, check, support_note, masks)
+
+
+def remove_stage(
+    scene: Scene,
+    field_: IdentityField,
+    out: str | Path,
+    cfg: RemovalConfig | None = None,
+    *,
+    clicks: list[Click] | None = None,
+    ids: list[int] | None = None,
+    backend: str = "auto",
+    overwrite: bool = False,
+    progress: bool = False,
+    meta: dict | None = None,
+) -> dict:
+    """Select (clicks and/or ids), remove, write ``out`` (docs/architecture.md, "Stage outputs").
+
+    Args: ``field_`` the distillation output; ``cfg`` None = defaults; ``clicks`` on the object, in
+    ``images/`` pixels; ``ids`` object ids to remove besides; ``backend`` the rasterizer
+    (:func:`render`); ``overwrite`` replace a non-empty ``out``; ``progress`` taken for the stages'
+    common call shape (the removal takes seconds and shows no bar); ``meta`` extra keys for
+    ``removal.json``.
+    Returns: what ``removal.json`` holds; its ``selection_check`` says whether the selection is an
+    object (:mod:`.check`; the stage records it, ``inpaint360gs run`` acts on it).
+    Raises: :class:`InputError` for a non-empty ``out`` or a click that selects nothing."""
+    check_stage_call("remove_stage", scene, out, cfg, RemovalConfig, overwrite=overwrite, progress=progress)
+    if not isinstance(field_, IdentityField):
+        raise InputError(f"expected an IdentityField (load_field), got {type(field_).__name__}", setting="remove_stage.field_")
+    check_selection(clicks, ids)
+    cfg = (cfg or RemovalConfig()).validate()
+    check_output_dir(out, overwrite)  # before any work
+    t0 = time.perf_counter()
+    clicks = list(clicks or [])
+    plan = plan_removal(field_, scene, clicks=clicks, ids=ids, cfg=cfg, backend=backend)
+    picked, targets, res = plan.picked, plan.targets, plan.removal
+    views, masks = scene.train_views, plan.masks
     stack = np.stack([masks[v.name] for v in views])
     info = {
         **(meta or {}),
@@ -87,10 +124,11 @@ def remove_stage(
         "removed_gaussians": int(res.removed_mask.sum()),
         "kept_gaussians": len(res.kept),
         "counts": res.counts,
+        "selection_check": plan.check.to_json(),
         "amcr_percent": amcr(stack),
         "mask_rule": f"a pixel is to be filled when removed Gaussians gave at least {cfg.mask_share:g} of its colour in the original model",
         "config": asdict(cfg),
-        "support": support_note,
+        "support": plan.support_note,
         "footprints": [fp.to_json() for fp in res.footprints],
         "seconds": round(time.perf_counter() - t0, 2),
         provenance.KEY: provenance.make("remove", scene, {"distill": field_.record.identity if field_.record else None},

@@ -11,7 +11,9 @@ import torch
 from tqdm import tqdm
 
 from inpaint360gs.core import layout
+from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_depth, write_image
 from inpaint360gs.io.scene import Scene, View
@@ -20,8 +22,8 @@ from inpaint360gs.render.api import render
 
 @torch.no_grad()
 def render_stage(
-    model: Gaussians,
     scene: Scene,
+    model: Gaussians,
     views: Sequence[View],
     out: str | Path,
     *,
@@ -35,8 +37,14 @@ def render_stage(
     """Render ``views`` into ``out`` (atomically); returns what ``render.json`` holds plus ``empty_views``,
     the number of views where no pixel is covered (alpha < 1/255 everywhere). ``meta`` goes into render.json.
 
-    ``sh_degree``, ``background`` and ``backend`` are passed to :func:`render`.
+    ``sh_degree``, ``background`` and ``backend`` are passed to :func:`render` (the stage has no
+    settings object: these three are its settings).
     Raises: :class:`InputError` for a non-empty ``out`` without ``overwrite``, and what :func:`render` raises."""
+    check_stage_call("render_stage", scene, out, None, object, overwrite=overwrite, progress=progress, models={"model": model})
+    if not isinstance(model, Gaussians):
+        raise InputError(f"expected Gaussians (io.ply.read_ply), got {type(model).__name__}", setting="render_stage.model")
+    if not isinstance(views, (list, tuple)) or not all(isinstance(v, View) for v in views):
+        raise InputError("expected a list of the scene's views", setting="render_stage.views")
     scales, empty = {}, 0
     with atomic_dir(out, overwrite=overwrite) as tmp:
         for v in tqdm(views, desc="render", disable=not (views and progress)):

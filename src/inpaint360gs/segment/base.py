@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import importlib
 from abc import ABC, abstractmethod
+from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -54,6 +55,24 @@ class Segmenter(ABC):
     def segment(self, view: View, image: torch.Tensor) -> np.ndarray:
         """(H, W) uint16 id image of ``view`` (``image``: (H, W, 3) float RGB in [0, 1])."""
 
+    def input_files(self, scene: Scene) -> list[Path]:
+        """Files besides the scene's photos that :meth:`prepare` and :meth:`segment` read (the oracle's
+        ``gt/`` masks, SAM's ONNX files): their content is part of the segmentation's signature and
+        record, so that a changed one reruns it. Those inside the scene are checked to stay inside
+        it (``core.files.inside``)."""
+        return []
+
+    def input_digests(self, scene: Scene) -> dict[str, str]:
+        """sha256 of each of :meth:`input_files` (by its name inside the scene, or its path);
+        :class:`InputError` naming a file that cannot be read."""
+        from inpaint360gs.core.files import check_readable, sha256_file
+
+        out = {}
+        for f in self.input_files(scene):
+            check_readable(f, f"a file the {self.name} segmenter reads")
+            out[str(f.relative_to(scene.root) if f.is_relative_to(scene.root) else f)] = sha256_file(f)
+        return out
+
     def settings(self) -> dict:
         """What segment.json records about this segmenter's configuration."""
         return {}
@@ -73,7 +92,11 @@ def get_segmenter(name: str, **options) -> Segmenter:
     if name not in SEGMENTERS:
         raise InputError(f"unknown segmenter {name!r} (known: {', '.join(SEGMENTERS)})", setting="segmenter")
     module, cls = SEGMENTERS[name].split(":")
-    return getattr(importlib.import_module(module), cls)(**options)
+    segmenter = getattr(importlib.import_module(module), cls)
+    try:
+        return segmenter(**options)
+    except (TypeError, AttributeError) as e:  # an unknown option, or an option of the wrong type
+        raise InputError(f"options {options!r:.60} do not fit segmenter {name!r} ({e})", setting="segmenter_options") from None
 
 
 def check_id_image(ids: np.ndarray, view: View, who: str) -> np.ndarray:

@@ -36,6 +36,7 @@ import numpy as np
 import torch
 
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.files import inside
 from inpaint360gs.core.layout import GT_DIR
 from inpaint360gs.io.images import read_mask, resize_mask
 from inpaint360gs.segment.base import Segmenter
@@ -149,13 +150,16 @@ class OracleSegmenter(Segmenter):
         self.config = cfg
         self._files: dict[str, Path] = {}
 
-    def prepare(self, scene, model) -> None:
-        """Find each training view's ground-truth instance mask; :class:`InputError` when one is missing."""
-        folder = Path(scene.root) / GT_DIR / INSTANCE_DIR
+    def input_files(self, scene) -> list[Path]:
+        """Each training view's ground-truth instance mask ``gt/instance/<stem>.png``, inside the scene."""
+        folder = inside(scene.root, f"{GT_DIR}/{INSTANCE_DIR}")
         if not folder.is_dir():
             raise InputError(f"the oracle segmenter needs ground-truth instance masks ({GT_DIR}/{INSTANCE_DIR}/, synthetic scenes only)", folder)
-        for v in scene.train_views:
-            p = folder / f"{v.stem}.png"
+        return [inside(scene.root, f"{GT_DIR}/{INSTANCE_DIR}/{v.stem}.png") for v in scene.train_views]
+
+    def prepare(self, scene, model) -> None:
+        """Find each training view's ground-truth instance mask; :class:`InputError` when one is missing."""
+        for v, p in zip(scene.train_views, self.input_files(scene)):
             m = read_mask(p)  # decodes: a corrupt file fails here, before any output
             cam = v.camera  # the mask is at full size (downscaled by the scene's factor) or at the view's size
             if (round(m.shape[0] / scene.resize), round(m.shape[1] / scene.resize)) != (cam.height, cam.width) and m.shape != (cam.height, cam.width):

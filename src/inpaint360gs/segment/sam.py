@@ -152,6 +152,10 @@ class SamSegmenter(Segmenter):
 
     # --- model files --------------------------------------------------------------------------------
 
+    def input_files(self, scene) -> list[Path]:
+        """The encoder and decoder ONNX files."""
+        return list(self.config.paths())
+
     def prepare(self, scene, model) -> None:
         """Open the SAM encoder and decoder ONNX sessions and check their inputs."""
         enc_path, dec_path = self.config.paths()

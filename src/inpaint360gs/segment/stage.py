@@ -21,12 +21,14 @@ from tqdm import tqdm
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.io import provenance
+from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_labels
+from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.metrics import psnr
 from inpaint360gs.render.api import render
-from inpaint360gs.segment.base import Segmenter, check_id_image
+from inpaint360gs.segment.base import DEFAULT_SEGMENTER, Segmenter, check_id_image, get_segmenter
 
 SEGMENT_JSON = "segment.json"
 # A trained model reproduces its own training views far better than this (results/README.md,
@@ -59,23 +61,31 @@ def check_model_fits_scene(scene: Scene, model: Gaussians, images: dict[str, tor
 
 def segment_stage(
     scene: Scene,
-    model: Gaussians | None,
-    segmenter: Segmenter,
+    model: Gaussians | str | Path | None,
     out: str | Path,
+    cfg: Segmenter | None = None,
     *,
     model_path: str | Path | None = None,
     overwrite: bool = False,
-    progress: bool = True,
+    progress: bool = False,
     check_model: bool = True,
 ) -> dict:
     """Segment every training view of ``scene`` into ``out`` (see the module docstring); returns
-    what segment.json holds. ``model`` may be None for a segmenter that does not use it.
+    what segment.json holds.
 
-    Args: ``model_path`` the model's PLY, checked to be of this scene and recorded; ``overwrite``
-    replace a non-empty ``out``; ``check_model`` refuse a model that does not reproduce the views.
+    Args: ``model`` the 3DGS (a :class:`Gaussians` or its PLY; None for a segmenter that does not use
+    it); ``cfg`` the segmenter (a configured :class:`Segmenter`; None: the default one);
+    ``model_path`` the model's PLY when ``model`` is a :class:`Gaussians`, checked to be of this scene
+    and recorded; ``overwrite`` replace a non-empty ``out``; ``progress`` show a progress bar;
+    ``check_model`` refuse a model that does not reproduce the views.
     Raises: :class:`InputError` for a non-empty ``out``, a missing or mismatched model, or a segmenter
     returning an id image of the wrong shape or type."""
+    check_stage_call("segment_stage", scene, out, cfg, Segmenter, overwrite=overwrite, progress=progress, models={} if model is None else {"model": model})
+    segmenter = get_segmenter(DEFAULT_SEGMENTER) if cfg is None else cfg
     check_output_dir(out, overwrite)  # before any work
+    if isinstance(model, (str, Path)):
+        model_path = Path(model)
+        model = read_ply(model_path) if segmenter.uses_model else None
     views = scene.train_views
     t0 = time.perf_counter()
     images = {v.name: scene.load_image(v) for v in views}  # decode every input before the work
@@ -88,6 +98,7 @@ def segment_stage(
         model_psnr = check_model_fits_scene(scene, model, images, model_path or "MODEL") if check_model else None
     else:
         model_psnr = None
+    read_files = segmenter.input_digests(scene)
     t_load = time.perf_counter() - t0
     t0 = time.perf_counter()
     segmenter.prepare(scene, model if segmenter.uses_model else None)
@@ -111,7 +122,8 @@ def segment_stage(
             "settings": segmenter.settings(),
             "prepared": segmenter.summary(),
             "inputs": inputs,
-            provenance.KEY: provenance.make("segment", scene, {"model": model_sha}, {"segmenter": segmenter.name, "settings": segmenter.settings(), "views": [v.name for v in views]}),
+            provenance.KEY: provenance.make("segment", scene, {"model": model_sha}, {"segmenter": segmenter.name, "settings": segmenter.settings(), "views": [v.name for v in views],
+                                                                        "files": read_files}),
             "model_check_psnr": None if model_psnr is None else round(model_psnr, 2),
             "num_views": len(views),
             "views": per_view,

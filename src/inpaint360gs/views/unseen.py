@@ -29,7 +29,6 @@ put back (the paper finds them with a detector; Sec. 3.4).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -38,18 +37,7 @@ import torch
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.gaussians import Gaussians
 from inpaint360gs.render.api import RenderOutput, render
-
-
-@dataclass
-class UnseenConfig:
-    """Settings of the unseen (NBS) masks (see the module docstring); shares lie in [0, 1]."""
-
-    depth_tol: float = 0.01  # a training view sees a point when nothing there is nearer by more than this share of the distance
-    min_alpha: float = 0.5  # rendered alpha, in [0, 1]: below this the edited scene shows a hole
-    footprint_share: float = 0.5  # footprint: the removed Gaussians gave at least this share of the colour
-    seen_object_share: float = 0.1  # a training pixel to which the removed Gaussians gave at least this share recorded them, not what lies behind or under them
-    min_component: int = 8  # specks smaller than this many pixels are dropped
-    dilate: int = 3  # final dilation, pixels
+from inpaint360gs.views.config import UnseenConfig  # noqa: F401  (defined with the other settings, importable here)
 
 
 def normalised_depth(out: RenderOutput, min_alpha: float = 1e-3) -> torch.Tensor:
