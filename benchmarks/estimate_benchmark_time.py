@@ -9,8 +9,8 @@ settings (``snakemake -n``, its "Job stats"); each job costs the committed run's
 and the sum divided by the same concurrency is the estimate. Jobs the committed tables do not time
 (scene generation, the removal scores, records) are given on the command line, measured apart.
 
-    python benchmarks/estimate_benchmark_time.py --committed-wall-min 161 --synth-min 3.0 --score-removal-min 0.3 \\
-        --extra-inpaint-per-run 1 --snakemake-args "--config seeds='[0,1]'"
+    python benchmarks/estimate_benchmark_time.py --committed-wall-min 161 --synth-min 4.0 --score-removal-min 0.3 \\
+        --snakemake-args "--config seeds='[0,1,2]'"
 """
 
 from __future__ import annotations
