@@ -57,6 +57,10 @@ RENAMED = {
     "refine_variant": (RefineConfig, "variant"),
     "inpaint_iterations": (RefineConfig, "iterations"),
     "supervision": (RefineConfig, "supervision"),
+    # the 3D inpainting's density control (the strong baseline), not 3DGS training's of RunConfig.train
+    "densify": (RefineConfig, "densify"),
+    "densify_until": (RefineConfig, "densify_until"),
+    "densify_grad": (RefineConfig, "densify_grad"),
     "sam_stability_thresh": (SamConfig, "stability_score_thresh"),
     "sam_min_region_area": (SamConfig, "min_mask_region_area"),
     "nets": (evaluate_stage, "nets"),
