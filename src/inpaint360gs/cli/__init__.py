@@ -24,6 +24,7 @@ STAGES: dict[str, tuple[str, str]] = {
     "evaluate": ("inpaint360gs.cli.evaluate", "score renders of a scene's test_ views: full, masked and ROI metrics, LPIPS, FID or its substitutes"),
     "distill": ("inpaint360gs.cli.distill", "distill associated object masks into identity features of a trained model (Sec. 3.3)"),
     "capture-scores": ("inpaint360gs.cli.capture_scores", "score a removal on a capture without ground truth: outside the hole, the footprint, the fill's texture"),
+    "view": ("inpaint360gs.cli.view", "the browser viewer: click a photo to select the object, run the removal, compare before and after"),
     "table": ("inpaint360gs.cli.table", "tables: 3DGS reconstruction, one run's record, the paper's Tabs. 1-3 from records (CSV/Markdown/LaTeX)"),
 }
 
