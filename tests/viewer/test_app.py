@@ -7,8 +7,7 @@ from __future__ import annotations
 
 import os
 import shutil
-import subprocess
-from pathlib import Path
+import time
 
 import numpy as np
 import pytest
@@ -17,10 +16,11 @@ from object_fields import click_on, labelled_field, write_field
 pytest.importorskip("viser", reason="the viewer extra is not installed (pip install -e .[viewer])")
 
 from inpaint360gs.cli import main  # noqa: E402
-from inpaint360gs.io.images import read_image  # noqa: E402
+from inpaint360gs.io.images import write_image  # noqa: E402
 from inpaint360gs.io.scene import load_scene  # noqa: E402
 from inpaint360gs.pipeline.presets import get_preset  # noqa: E402
 from inpaint360gs.remove.select import Click  # noqa: E402
+from inpaint360gs.viewer.browser import Browser, chromium  # noqa: E402
 from inpaint360gs.viewer.app import SELECTED_TINT, ViewerApp, exposure_warning  # noqa: E402
 from inpaint360gs.viewer.session import ViewerSession, frustum_depth, frustum_shape, ray_through_pixel, splat_arrays  # noqa: E402
 
@@ -83,22 +83,11 @@ def test_the_page_click_and_run_button_give_what_run_click_gives(tiny_scene, tmp
     assert main(["run", *common[:1], str(out_view), *common[2:], "--until", "remove", "--click", str(c)]) == 0
 
 
-def _chromium() -> str | None:
-    return shutil.which("chromium") or shutil.which("chromium-browser")
-
-
-def screenshot(url: str, path: Path, size=(1280, 800)) -> None:
-    """Headless Chromium's screenshot of ``url`` (software WebGL), after 12 s of page time."""
-    cmd = [_chromium(), "--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader", f"--window-size={size[0]},{size[1]}",
-           "--virtual-time-budget=12000", f"--screenshot={path}", url]  # fmt: skip
-    subprocess.run(cmd, check=True, capture_output=True, timeout=120)
-
-
 def share_near(img: np.ndarray, rgb: np.ndarray, tol: float = 0.15) -> float:
     return float((np.abs(img - rgb).max(axis=-1) < tol).mean())
 
 
-@pytest.mark.skipif(_chromium() is None, reason="no chromium (Debian's chromium package; .ci/run installs it)")
+@pytest.mark.skipif(chromium() is None, reason="no chromium (Debian's chromium package; .ci/run installs it)")
 def test_the_browser_shows_the_splats_in_the_scenes_colours_and_the_selection(make_blobs_scene, tmp_path):
     root, model, labels = make_blobs_scene("shot", n_views=10)
     scene = load_scene(root)
@@ -112,16 +101,25 @@ def test_the_browser_shows_the_splats_in_the_scenes_colours_and_the_selection(ma
     try:
         app.click(click_on(scene.train_views[0], BLOB_2))
         assert session.plan.targets == [7]
-        shot = tmp_path / "viewer.png"
-        screenshot(f"http://127.0.0.1:{app.port}", shot)
+        rgbs, lab = splat_arrays(model)["rgbs"], labels.numpy()
+        blob1 = rgbs[lab == 1].mean(axis=0)
+        blob2_tinted = (0.5 * rgbs[lab == 2] + 0.5 * SELECTED_TINT).mean(axis=0)
+        browser = Browser()
+        try:
+            browser.call("Page.navigate", url=f"http://127.0.0.1:{app.port}")
+            # the splats fade in as their data arrives: screenshots until both blobs are there (each some
+            # 0.2 % of the 1280x800 page; the floor's colours are far from both), or the last after 2 min
+            browser.wait_for(lambda im: share_near(im / 255.0, blob1) > 0.0008 and share_near(im / 255.0, blob2_tinted) > 0.0008)
+            time.sleep(2.0)  # the fade-in's end, and the panel's pictures
+            raw = browser.screenshot()
+        finally:
+            browser.close()
     finally:
         app.stop()
-    img = read_image(shot)[..., :3].astype(np.float64) / 255.0
+    img = raw / 255.0
+    shot = tmp_path / "viewer.png"
+    write_image(shot, raw.astype(np.uint8))
     assert img.std() > 0.05  # not blank
-    rgbs, lab = splat_arrays(model)["rgbs"], labels.numpy()
-    blob1 = rgbs[lab == 1].mean(axis=0)
-    blob2_tinted = (0.5 * rgbs[lab == 2] + 0.5 * SELECTED_TINT).mean(axis=0)
-    # each blob covers some 0.2 % of the 1280x800 page (the floor's colours are far from both)
     assert share_near(img, blob1) > 0.0008, "the unselected blob's colour is not on the page"
     assert share_near(img, blob2_tinted) > 0.0008, "the selected blob is not drawn tinted"
     assert share_near(img, rgbs[lab == 2].mean(axis=0)) < 0.2 * share_near(img, blob2_tinted)  # drawn tinted, not in its own colour

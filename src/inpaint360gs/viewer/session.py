@@ -33,7 +33,7 @@ from inpaint360gs.io.scene import Scene, View
 from inpaint360gs.pipeline.check import CHECK_JSON, CHECK_PICTURE, selection_overlay
 from inpaint360gs.pipeline.config import RunConfig
 from inpaint360gs.pipeline.run import STAGES, Runner
-from inpaint360gs.remove.select import Click, select
+from inpaint360gs.remove.select import Click
 from inpaint360gs.remove.stage import RemovalPlan, load_field, plan_removal
 
 MODES = ("before", "removed", "inpainted")  # the splats the page can show: 3DGS, after removal, after inpainting
@@ -262,16 +262,19 @@ class ViewerSession:
                 self.clicks = [c for c in self.clicks if c != click] if click in self.clicks else [*self.clicks, click]
                 self.message = f"{len(self.clicks)} click(s); the object field does not exist yet: Run distils it and removes what they select"
                 return self.message
-            picked = select(self.field, self.scene, [click], backend=self.cfg.backend)[0]
+            # the selection with the click added (one plan_removal: what run --click with these clicks removes)
+            plan = plan_removal(self.field, self.scene, clicks=[*self.clicks, click], cfg=self.cfg.removal, backend=self.cfg.backend)
+            picked = plan.picked[-1]
             same = []
-            if self.plan is not None:
-                for c, p in zip(self.clicks, self.plan.picked):
-                    if picked.object_id is not None and p.object_id == picked.object_id:
-                        same.append(c)
-                    elif picked.gaussians is not None and p.gaussians is not None and (p.gaussians & picked.gaussians).sum() > 0.5 * picked.gaussians.sum():
-                        same.append(c)
-            clicks = [c for c in self.clicks if c not in same] if same else [*self.clicks, click]
-            plan = plan_removal(self.field, self.scene, clicks=clicks, cfg=self.cfg.removal, backend=self.cfg.backend) if clicks else None
+            for c, p in zip(self.clicks, plan.picked[:-1]):
+                if picked.object_id is not None and p.object_id == picked.object_id:
+                    same.append(c)
+                elif picked.gaussians is not None and p.gaussians is not None and (p.gaussians & picked.gaussians).sum() > 0.5 * picked.gaussians.sum():
+                    same.append(c)
+            clicks = [*self.clicks, click]
+            if same:  # a click on a selected object drops it
+                clicks = [c for c in self.clicks if c not in same]
+                plan = plan_removal(self.field, self.scene, clicks=clicks, cfg=self.cfg.removal, backend=self.cfg.backend) if clicks else None
         except InputError as e:
             self.message = f"not selected: {e.args[0] if e.args else e}"
             return self.message
