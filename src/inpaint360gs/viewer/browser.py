@@ -39,9 +39,8 @@ class Browser:
         if exe is None:
             return
         port = free_port()
-        self.proc = subprocess.Popen([exe, "--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
-                                      f"--window-size={size[0]},{size[1]}", f"--remote-debugging-port={port}", "about:blank"],
-                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+        flags = ["headless=new", "no-sandbox", "use-angle=swiftshader", "enable-unsafe-swiftshader", f"window-size={size[0]},{size[1]}", f"remote-debugging-port={port}"]
+        self.proc = subprocess.Popen([exe, *("--" + f for f in flags), "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         for _ in range(200):
             try:
                 pages = json.loads(urllib.request.urlopen(f"http://127.0.0.1:{port}/json", timeout=1).read())
