@@ -6,6 +6,7 @@ that which object each Gaussian (and each rendered pixel) belongs to is known wi
 * :func:`write_field`: that field as a distillation output folder (``point_cloud.ply``,
   ``classifier.json`` and a ``distill.json`` recording the scene, as ``inpaint360gs distill`` writes).
 * :func:`ball`: centres uniform in a ball.
+* :func:`click_on`: the click at the pixel a world point projects to in a view.
 """
 
 from __future__ import annotations
@@ -66,3 +67,13 @@ def points_model(points: np.ndarray, scale: float = 0.03, opacity: float = 0.9) 
     """Small grey isotropic Gaussians at ``points``."""
     p = torch.tensor(points, dtype=torch.float32)
     return Gaussians.from_points(p, torch.full_like(p, 0.5), sh_degree=0, init_opacity=opacity, scales=torch.full((len(p),), scale))
+
+
+def click_on(view, point):
+    """The :class:`Click` at the pixel where the world ``point`` projects in ``view`` (a camera at full size)."""
+    from inpaint360gs.remove.select import Click
+
+    cam = view.camera
+    R, t = cam.R.double().numpy(), cam.t.double().numpy()
+    xc = R @ np.asarray(point, float) + t
+    return Click(view.name, int(cam.fx * xc[0] / xc[2] + cam.cx), int(cam.fy * xc[1] / xc[2] + cam.cy))

@@ -4,6 +4,7 @@ The API: :func:`load_scene` reads a scene folder, :func:`remove_object` runs the
 same run as ``inpaint360gs run``) and returns a :class:`RemovalResult` (folders, what each stage did,
 stage seconds); :data:`PRESETS` are the settings it runs with (``cpu``, ``gpu``, ``paper``), each a whole
 :class:`RunConfig` to change with ``dataclasses.replace``.
+:func:`view` serves the browser viewer on a scene and a run folder (click to select, run, compare).
 Importing the package is cheap: the API's modules load on first use.
 
 >>> import inpaint360gs
@@ -31,7 +32,7 @@ _os.environ.setdefault("MKL_CBWR", "AUTO")
 
 __version__ = "0.1.0"
 
-__all__ = ["PRESETS", "RemovalResult", "RunConfig", "get_preset", "load_scene", "remove_object", "__version__"]
+__all__ = ["PRESETS", "RemovalResult", "RunConfig", "get_preset", "load_scene", "remove_object", "view", "__version__"]
 
 
 def __getattr__(name: str):
@@ -44,6 +45,10 @@ def __getattr__(name: str):
         from inpaint360gs.pipeline import presets
 
         return getattr(presets, name)
+    if name == "view":  # the browser viewer (viser, an optional extra, loads when it starts)
+        from inpaint360gs.viewer.api import view
+
+        return view
     if name == "RunConfig":
         from inpaint360gs.pipeline.config import RunConfig
 

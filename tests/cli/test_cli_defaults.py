@@ -30,6 +30,7 @@ from inpaint360gs.segment.cluster3d import ClusterConfig
 from inpaint360gs.segment.geometric import GeometricConfig
 from inpaint360gs.segment.oracle import OracleConfig
 from inpaint360gs.segment.sam import SamConfig
+from inpaint360gs.viewer.api import view
 from inpaint360gs.views.config import VirtualViewsConfig
 
 # where each subcommand's settings live, searched in this order (nested dataclasses after their owner)
@@ -46,6 +47,7 @@ SOURCES = {
     "distill": [DistillConfig],
     "capture-scores": [],
     "table": [],
+    "view": [view, RunConfig],
 }
 # option -> (where, field) when the names differ
 RENAMED = {

@@ -30,7 +30,8 @@ FLOORS = {
     "evaluate": 10,
     "report": 10,
     "pipeline": 11,
-    "cli": 12,
+    "viewer": 12,
+    "cli": 13,
 }
 
 

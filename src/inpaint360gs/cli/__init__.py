@@ -25,6 +25,7 @@ STAGES: dict[str, tuple[str, str]] = {
     "distill": ("inpaint360gs.cli.distill", "distill associated object masks into identity features of a trained model (Sec. 3.3)"),
     "score-removal": ("inpaint360gs.cli.score_removal", "score a removal: AMCR over the training views and, on a synthetic scene, residual and collateral against gt/"),
     "capture-scores": ("inpaint360gs.cli.capture_scores", "score a removal on a capture without ground truth: outside the hole, the footprint, the fill's texture"),
+    "view": ("inpaint360gs.cli.view", "the browser viewer: click a photo to select the object, run the removal, compare before and after"),
     "table": ("inpaint360gs.cli.table", "tables: 3DGS reconstruction, one run's record, the paper's Tabs. 1-3 from records (CSV/Markdown/LaTeX)"),
 }
 

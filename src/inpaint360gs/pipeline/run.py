@@ -101,6 +101,9 @@ class Runner:
         announce: Print what each stage does before it starts.
         accept: Finish with the result even when it fails the run's own check (it is still recorded
             as failed in ``check.json``).
+        on_stage: Called as ``on_stage(stage, what, seconds)`` when a stage starts (``what`` is
+            ``"running"``, ``seconds`` None) and when it is done (``"ran"`` with its wall seconds,
+            ``"up to date"`` or ``"given"``): the viewer's per-stage progress.
 
     Raises:
         InputError: Any argument of the wrong type or out of range (naming it), a setting out of range
@@ -110,7 +113,7 @@ class Runner:
     """
 
     def __init__(self, scene: Scene, out: str | Path, cfg: RunConfig, *, model: str | Path | None = None, clicks: list[Click] | None = None, ids: list[int] | None = None, progress: bool = True,
-                 announce: bool = False, accept: bool = False):
+                 announce: bool = False, accept: bool = False, on_stage=None):
         scene_argument(scene)
         check_run_arguments(out, cfg, model=model, clicks=clicks, ids=ids, progress=progress, accept=accept)
         cfg.validate()
@@ -131,6 +134,7 @@ class Runner:
         self.progress = progress
         self.announce = announce  # say on stdout what each stage does before it starts
         self.accept = accept
+        self.on_stage = on_stage if on_stage is not None else (lambda stage, what, seconds: None)
         self.check: CheckReport | None = None  # the last check of the result (after remove / inpaint)
         self.record_path = self.layout.root / RUN_JSON
         self.record = self._read_record()
@@ -261,9 +265,11 @@ class Runner:
             for stage in stages:
                 if stage == "train" and self.model_path is not None:
                     done.append((stage, "given"))
+                    self.on_stage(stage, "given", None)
                     continue
                 if self.up_to_date(stage, sigs[stage]):
                     done.append((stage, "up to date"))
+                    self.on_stage(stage, "up to date", None)
                     # a result that failed its check fails again, until accepted; a later checked stage
                     # that is up to date too holds the whole check (check.json keeps the last one)
                     later = [s for s in stages[stages.index(stage) + 1 :] if s in CHECKED_STAGES]
@@ -277,6 +283,7 @@ class Runner:
                 self._save()
                 if self.announce:
                     print(f"{stage}: {STAGE_WORK[stage]} ...", flush=True)
+                self.on_stage(stage, "running", None)
                 t0 = time.perf_counter()
                 try:
                     getattr(self, f"_{stage}")()
@@ -291,6 +298,7 @@ class Runner:
                 self.record.setdefault(SECONDS_KEY, {})[stage] = round(time.perf_counter() - t0, 1)
                 self._save()
                 done.append((stage, "ran"))
+                self.on_stage(stage, "ran", self.record[SECONDS_KEY][stage])
                 if stage in CHECKED_STAGES:
                     self._check(stage, sigs[stage])
         return done

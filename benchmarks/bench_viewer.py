@@ -1,0 +1,124 @@
+"""How fast the viewer answers (README "Viewer"; targets: the first frame within 10 s of
+``inpaint360gs view`` on a trained kitchen, a click's selection drawn within 2 s once the object
+field exists). Headless Chromium (software WebGL) is driven over its DevTools protocol and its page
+is screenshotted every 0.1 s, so that "drawn" is what the browser shows, not what the server sent.
+
+1. ``inpaint360gs view SCENE RUN`` in a fresh process: seconds to its URL line (scene, splats and
+   photos loaded), then to the first screenshot whose splat region holds the scene (pixels neither
+   the page's white nor the frustums' grey), counted from the command's start.
+2. In this process, the viewer on the same folders with a browser connected: a click on the photo at
+   ``--click`` (the selection through the object field, as ``run --click``), seconds to the session's
+   selection, to the splats sent, and to the first screenshot that differs from the one before the
+   click; then the same click again (drops it).
+
+    python benchmarks/bench_viewer.py data/kitchen runs/kitchen --click IMG_12.png:856,360 --resize 4
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from inpaint360gs.viewer.browser import Browser, free_port
+
+
+def scene_drawn(img: np.ndarray) -> bool:
+    """Whether the page's 3D view (left of the panel) shows the splats: at least 2 % of its pixels are
+    coloured (not the white page, not a grey frustum line, not the notice boxes' white)."""
+    view = img[:, : int(img.shape[1] * 0.72)]
+    spread = view.max(axis=-1) - view.min(axis=-1)
+    return float(((spread > 20) & (view.max(axis=-1) < 250)).mean()) > 0.02
+
+
+def wait_for(browser: Browser, test, t0: float, timeout: float = 120.0) -> float:
+    while time.perf_counter() - t0 < timeout:
+        if test(browser.screenshot()):
+            return time.perf_counter() - t0
+        time.sleep(0.1)
+    return float("nan")
+
+
+def first_frame(args, browser: Browser) -> dict:
+    port = free_port()
+    cmd = [str(Path(sys.executable).with_name("inpaint360gs")), "view", args.scene, args.run, "--port", str(port), "--resize", str(args.resize)]
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        for line in proc.stdout:
+            if line.startswith("inpaint360gs view: http://"):
+                break
+        else:
+            sys.exit(f"bench_viewer: {' '.join(cmd)} ended without serving")
+        ready = time.perf_counter() - t0
+        browser.call("Page.navigate", url=f"http://127.0.0.1:{port}")
+        frame = wait_for(browser, scene_drawn, t0)
+    finally:
+        proc.terminate()
+        proc.wait()
+    return {"view: URL printed (s)": ready, "view: first frame with the splats (s)": frame}
+
+
+def click_times(args, browser: Browser) -> dict:
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.pipeline.presets import get_preset
+    from inpaint360gs.remove.select import Click
+    from inpaint360gs.viewer.app import ViewerApp
+    from inpaint360gs.viewer.session import ViewerSession
+
+    scene = load_scene(args.scene, resize=args.resize, load_masks=False)
+    session = ViewerSession(scene, args.run, get_preset("cpu"))
+    if session.field is None:
+        sys.exit(f"bench_viewer: {args.run} has no object field (distill/): run it up to distill first")
+    app = ViewerApp(session, port=free_port())
+    out = {}
+    try:
+        browser.call("Page.navigate", url=f"http://127.0.0.1:{app.port}")
+        wait_for(browser, scene_drawn, time.perf_counter())
+        time.sleep(1.0)
+        click = Click.parse(args.click)
+        app.show_view(scene.view(click.view), move=False)
+        for what in ("select", "drop"):
+            time.sleep(1.0)
+            before = browser.screenshot()
+            t0 = time.perf_counter()
+            session.click(click)
+            t_sel = time.perf_counter() - t0
+            app.show_splats()
+            app.show_view(scene.view(click.view), move=False)
+            t_sent = time.perf_counter() - t0
+            drawn = wait_for(browser, lambda img: float((np.abs(img - before).max(axis=-1) > 30).mean()) > 0.002, t0)
+            out |= {f"click ({what}): selection computed (s)": t_sel, f"click ({what}): sent to the page (s)": t_sent, f"click ({what}): drawn (s)": drawn}
+        out["selection check"] = session.verdict() if session.plan else "(dropped)"
+    finally:
+        app.stop()
+    return out
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("scene")
+    p.add_argument("run", help="a run folder with 3dgs/ and distill/ (inpaint360gs run --until distill)")
+    p.add_argument("--click", required=True, help="VIEW:X,Y on the object (images/ coordinates)")
+    p.add_argument("--resize", type=int, default=1)
+    args = p.parse_args()
+    browser = Browser()
+    if browser.proc is None:
+        sys.exit("bench_viewer: needs chromium (Debian's chromium package)")
+    try:
+        rows = first_frame(args, browser)
+        print(rows, flush=True)
+        rows |= click_times(args, browser)
+    finally:
+        browser.close()
+    print("| measure | value |\n|---|---|")
+    for k, v in rows.items():
+        print(f"| {k} | {v:.2f} |" if isinstance(v, float) else f"| {k} | {v} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,54 @@
+"""``inpaint360gs view SCENE [RUN] [--model PLY] [--preset cpu|gpu|paper] [--port N] [--host H]``: the
+browser viewer (README "Viewer"; thin shell over :func:`inpaint360gs.viewer.api.view`). Click on a
+photo to select the object to remove, Run to remove and inpaint it into RUN (the run of
+``inpaint360gs run SCENE RUN --click ...``), compare before and after. Serves on 127.0.0.1 unless
+``--host`` says otherwise (with a warning: the page has no login)."""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+
+from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, add_threads_argument, existing_dir, existing_file, nonneg_int, output_dir, set_threads
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add ``inpaint360gs view``'s arguments to ``parser``."""
+    from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS
+    from inpaint360gs.viewer.api import DEFAULT_PORT
+
+    parser.add_argument("scene", type=existing_dir, help="scene folder (images/, sparse/0, scene.json, ...)")
+    parser.add_argument("out", type=output_dir, nargs="?", default=None, help="the run's folder, as inpaint360gs run's OUT (default: runs/<scene name>)")
+    parser.add_argument("--model", type=existing_file, default=None, help="a trained 3DGS PLY of this scene (as run --model)")
+    parser.add_argument("--preset", default=DEFAULT_PRESET, choices=list(PRESETS), help=f"the run's settings (default {DEFAULT_PRESET}, as inpaint360gs run)")
+    parser.add_argument("--port", type=nonneg_int, default=DEFAULT_PORT, help=f"port to serve on (default {DEFAULT_PORT}; 0: a free one)")
+    parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1, this machine only; another is warned about)")
+    parser.add_argument("--accept", action="store_true", help="keep a run's result that fails its check (as run --accept)")
+    add_scene_arguments(parser, llffhold=False, resize_note="else images/ shrunk on read; clicks stay in the coordinates of images/")
+    add_backend_argument(parser, default=None)
+    add_threads_argument(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``inpaint360gs view`` with parsed ``args`` (serves until Ctrl-C); returns the exit status."""
+    from dataclasses import replace
+
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.pipeline.presets import get_preset
+    from inpaint360gs.viewer.api import view
+    from inpaint360gs.viewer.app import exposure_warning
+
+    set_threads(args.threads)
+    scene = load_scene(args.scene, resize=args.resize, load_masks=False)
+    cfg = get_preset(args.preset)
+    if args.backend is not None:
+        cfg = replace(cfg, backend=args.backend)
+    warning = exposure_warning(args.host)
+    if warning:
+        print(f"warning: {warning}", flush=True)
+    with warnings.catch_warnings():  # said above, as one line
+        warnings.simplefilter("ignore")
+        app = view(scene, args.out, cfg=cfg, model=args.model, host=args.host, port=args.port, accept=args.accept, block=False)
+    print(f"inpaint360gs view: http://{args.host}:{app.port} (run folder {app.session.layout.root}; Ctrl-C to stop)", flush=True)
+    app.serve_forever()
+    return 0

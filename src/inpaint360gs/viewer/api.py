@@ -1,0 +1,57 @@
+"""``inpaint360gs.view(...)``: the viewer from Python (README "Viewer"); viser is imported here only
+when the viewer starts, so that it stays an optional extra."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.arguments import bool_argument, path_argument, scene_argument
+from inpaint360gs.io.scene import Scene
+from inpaint360gs.pipeline.config import RunConfig
+from inpaint360gs.pipeline.presets import DEFAULT_PRESET, get_preset
+
+DEFAULT_PORT = 8080
+
+
+def default_run_folder(scene: Scene) -> Path:
+    """Where the viewer's run goes when none is given: ``runs/<scene name>`` in the working folder
+    (the README's layout), so that ``inpaint360gs run SCENE runs/<name>`` resumes it."""
+    return Path("runs") / scene.name
+
+
+def view(scene: Scene, out: str | Path | None = None, *, cfg: RunConfig | None = None, model: str | Path | None = None, host: str = "127.0.0.1",
+         port: int = DEFAULT_PORT, accept: bool = False, block: bool = True):  # fmt: skip
+    """Serve the viewer of ``scene`` and the run folder ``out`` (default :func:`default_run_folder`).
+
+    Args: ``cfg`` the run's settings (default: the default preset's, as ``inpaint360gs run``);
+    ``model`` a trained 3DGS PLY (as ``run --model``); ``host`` / ``port`` where to serve (port 0:
+    a free one; a host other than this machine's loopback is warned about); ``accept`` keep a result
+    that fails the run's check; ``block`` serve until Ctrl-C, else return at once.
+    Returns: the running :class:`inpaint360gs.viewer.app.ViewerApp` (``.port``, ``.stop()``).
+    Raises: :class:`InputError` for a bad argument or a missing viser (``pip install -e .[viewer]``)."""
+    from inpaint360gs.viewer.session import ViewerSession
+
+    scene_argument(scene)
+    if out is not None:
+        path_argument(out, "out")
+    if model is not None:
+        path_argument(model, "model")
+    bool_argument(accept, "accept")
+    bool_argument(block, "block")
+    if not isinstance(host, str) or not host:
+        raise InputError(f"expected a host name or address, got {host!r:.40}", setting="host")
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise InputError(f"a port is a whole number in 0..65535, got {port!r:.40}", setting="port")
+    if cfg is None:
+        cfg = get_preset(DEFAULT_PRESET)
+    elif not isinstance(cfg, RunConfig):
+        raise InputError(f"expected a RunConfig (a preset, inpaint360gs.get_preset), got {type(cfg).__name__}", setting="cfg")
+    try:
+        import viser  # noqa: F401
+    except ImportError:
+        raise InputError("the viewer needs viser: pip install -e '.[viewer]'", setting="viewer") from None
+    from inpaint360gs.viewer.app import serve
+
+    session = ViewerSession(scene, default_run_folder(scene) if out is None else out, cfg, model=model, accept=accept)
+    return serve(session, host=host, port=port, block=block)

@@ -1,0 +1,286 @@
+"""The viewer's page (README "Viewer"), built on viser: the only module that imports it (an optional
+extra, ``pip install -e .[viewer]``). What it shows and does is :class:`.session.ViewerSession`'s;
+this module puts it in the page and turns the page's events into the session's calls.
+
+* The splats of the chosen stage (before / removed / inpainted) with viser's Gaussian splats; the
+  selected Gaussians tinted red.
+* Each training camera as a frustum with its photo. Clicking a frustum chooses that camera (the
+  page's camera moves to it; the panel shows the photo with the selection beside the render at that
+  camera); clicking on the chosen camera's photo selects the object under that pixel, or drops it.
+* Run (the session's :class:`.session.RunJob`, per-stage progress), Clear, Save clicks to
+  scene.json, and downloads of the shown PLY and the inpainting's turntable GIF."""
+
+from __future__ import annotations
+
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.pipeline.run import STAGES
+from inpaint360gs.remove.select import Click
+from inpaint360gs.viewer.session import MODES, ViewerSession, camera_pose, frustum_depth, frustum_shape, pixel_from_ray, scene_up, splat_arrays
+
+LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
+SELECTED_TINT = np.array([1.0, 0.1, 0.1], np.float32)  # colour the selected Gaussians are drawn in (half-blended)
+THUMB_WIDTH = 320  # the photos on the frustums are sent at most this wide
+
+
+def exposure_warning(host: str) -> str | None:
+    """The warning printed when the viewer serves beyond this machine, or None for a local host."""
+    if host in LOCAL_HOSTS:
+        return None
+    return (f"serving on {host}: anyone who can reach this machine can see the scene, run stages that write into the run folder "
+            "and overwrite scene.json's clicks; the page has no login")  # fmt: skip
+
+
+def _thumb(img: np.ndarray) -> np.ndarray:
+    import cv2
+
+    h, w = img.shape[:2]
+    if w <= THUMB_WIDTH:
+        return img
+    return cv2.resize(img, (THUMB_WIDTH, round(h * THUMB_WIDTH / w)), interpolation=cv2.INTER_AREA)
+
+
+class ViewerApp:
+    """The page of ``session``, served on ``host``:``port`` (0: a free port) until :meth:`stop`."""
+
+    def __init__(self, session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080):
+        import viser
+
+        self.session = session
+        self.scene = session.scene
+        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.lock = threading.RLock()  # page events come from viser's thread pool
+        self.views = self.scene.train_views
+        self.current = self.views[0]
+        self.mode = next(iter(session.available()), MODES[0])
+        self.scale = 0.03 * max(self.scene.extent, 1e-6)  # frustum size: a fraction of the camera orbit
+        self.frustums = {}
+        self.server.scene.set_up_direction(tuple(scene_up(self.scene)))
+        self._build_gui()
+        self._add_cameras()
+        self.show_splats()
+        self.show_view(self.current, move=False)
+        self._poller = None
+
+    # --- the page ------------------------------------------------------------------------------------
+    def _build_gui(self) -> None:
+        gui = self.server.gui
+        gui.set_panel_label("inpaint360gs")
+        self.g_status = gui.add_markdown(self._status())
+        self.g_view = gui.add_dropdown("camera", [v.name for v in self.views], initial_value=self.current.name)
+        self.g_view.on_update(lambda _: self.show_view(self.scene.view(self.g_view.value)))
+        self.g_mode = gui.add_dropdown("show", list(MODES), initial_value=self.mode)
+        self.g_mode.on_update(lambda _: self.set_mode(self.g_mode.value))
+        self.g_image = gui.add_image(np.zeros((8, 16, 3), np.uint8), label="photo | render")
+        self.g_check = gui.add_markdown("")
+        self.g_clear = gui.add_button("Clear selection")
+        self.g_clear.on_click(lambda _: self._clear())
+        self.g_save = gui.add_button("Save clicks to scene.json")
+        self.g_save.on_click(lambda _: self._save())
+        self.g_run = gui.add_button("Run removal and inpainting")
+        self.g_run.on_click(lambda _: self.run())
+        with gui.add_folder("progress"):
+            self.g_bar = gui.add_progress_bar(0.0)
+            self.g_stages = gui.add_markdown(self._stages())
+        with gui.add_folder("export"):
+            self.g_ply = gui.add_button("Download the shown PLY")
+            self.g_ply.on_click(lambda e: self._download(e.client, self.session.ply(self.mode)))
+            self.g_gif = gui.add_button("Download the turntable GIF")
+            self.g_gif.on_click(lambda e: self._download(e.client, self.session.layout.inpainted / "trajectory.gif"))
+
+    def _status(self) -> str:
+        s = self.session
+        field = "object field: loaded" if s.field is not None else "object field: not yet (Run distils it)"
+        sel = ", ".join(str(c) for c in s.clicks) or "none"
+        return f"**{self.scene.name}** · run folder `{s.layout.root}` · {field}  \nselection: {sel}  \n{s.message}"
+
+    def _stages(self) -> str:
+        job = self.session.job
+        if job is None:
+            return "no run started here"
+        now = time.monotonic()
+        lines = [f"- {st}: {job.stages[st].line(now)}" for st in STAGES]
+        if job.error:
+            lines.append(f"\n**failed**: {job.error}")
+        elif job.done:
+            lines.append("\n**done**")
+        return "\n".join(lines)
+
+    def _refresh_text(self) -> None:
+        self.g_status.content = self._status()
+        self.g_check.content = f"selection check: **{self.session.verdict()}**"
+
+    def _add_cameras(self) -> None:
+        for v in self.views:
+            fov, aspect = frustum_shape(v.camera)
+            wxyz, pos = camera_pose(v.camera)
+            photo = _thumb(self.scene.load_image_raw(v))
+            fr = self.server.scene.add_camera_frustum(f"/cameras/{v.stem}", fov=fov, aspect=aspect, scale=self.scale, image=photo, wxyz=wxyz, position=pos,
+                                                      color=(120, 120, 120))  # fmt: skip
+            fr.on_click(lambda e, v=v: self.on_frustum_click(v.name, e.ray_origin, e.ray_direction))
+            self.frustums[v.name] = fr
+
+    # --- what events do ------------------------------------------------------------------------------
+    def show_splats(self) -> None:
+        """Send the splats of the shown mode (the selection tinted on the 'before' model)."""
+        with self.lock:
+            g = self.session.gaussians(self.mode)
+            if g is None:
+                self.server.scene.add_point_cloud("/splats", np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8), point_size=0.01)
+                return
+            arr = splat_arrays(g)
+            sel = self.session.selected() if self.mode == "before" else None
+            if sel is not None and len(sel) == len(arr["rgbs"]):
+                arr["rgbs"][sel] = 0.5 * arr["rgbs"][sel] + 0.5 * SELECTED_TINT
+            self.server.scene.add_gaussian_splats("/splats", **arr)
+
+    def set_mode(self, mode: str) -> None:
+        with self.lock:
+            self.mode = mode
+            self.show_splats()
+            self.show_view(self.current, move=False)
+
+    def show_view(self, view, *, move: bool = True) -> None:
+        """Choose the camera ``view``: the panel's photo | render, and (``move``) the page's camera at it."""
+        with self.lock:
+            self.current = view
+            if self.g_view.value != view.name:
+                self.g_view.value = view.name
+            for name, fr in self.frustums.items():
+                fr.color = (255, 200, 0) if name == view.name else (120, 120, 120)
+            self.g_image.image = self.session.side_by_side(view, self.mode)
+            self._refresh_text()
+            if move:
+                wxyz, pos = camera_pose(view.camera)
+                fov, _ = frustum_shape(view.camera)
+                for client in self.server.get_clients().values():
+                    with client.atomic():
+                        client.camera.fov = fov
+                        client.camera.wxyz = wxyz
+                        client.camera.position = pos
+
+    def on_frustum_click(self, name: str, origin, direction) -> str | None:
+        """A click on a frustum: on another camera's, choose it; on the chosen camera's photo, the
+        click at the pixel the ray hits. Returns the session's line for a selection click."""
+        view = self.scene.view(name)
+        if view.name != self.current.name:
+            self.show_view(view)
+            return None
+        fov, aspect = frustum_shape(view.camera)
+        px = pixel_from_ray(view, origin, direction, frustum_depth(fov, aspect, self.scale))
+        if px is None:
+            return None
+        return self.click(Click(view.name, *px))
+
+    def click(self, click: Click) -> str:
+        """Select (or drop) the object under ``click`` and draw the selection."""
+        with self.lock:
+            line = self.session.click(click)
+            self.show_splats()
+            self.show_view(self.scene.view(click.view), move=False)
+            return line
+
+    def _clear(self) -> None:
+        with self.lock:
+            self.session.clear()
+            self.show_splats()
+            self.show_view(self.current, move=False)
+
+    def _save(self) -> None:
+        with self.lock:
+            try:
+                self.session.message = f"saved the clicks to {self.session.save_clicks()}"
+            except InputError as e:
+                self.session.message = str(e)
+            self._refresh_text()
+
+    def _download(self, client, path: Path) -> None:
+        if client is None:
+            return
+        if not path.is_file():
+            self.session.message = f"{path.name} does not exist yet: run first"
+            self._refresh_text()
+            return
+        client.send_file_download(path.name, path.read_bytes())
+
+    def run(self):
+        """The Run button: start the job and follow it (its progress in the panel); returns the job or None."""
+        with self.lock:
+            try:
+                job = self.session.start_run()
+            except InputError as e:
+                self.session.message = f"cannot run: {e}"
+                self._refresh_text()
+                return None
+            self.session.message = "running ..."
+            self._refresh_text()
+        self._poller = threading.Thread(target=self._follow, args=(job,), name="inpaint360gs-progress", daemon=True)
+        self._poller.start()
+        return job
+
+    def _follow(self, job) -> None:
+        while not job.done:
+            self.g_bar.value = 100.0 * job.fraction()
+            self.g_stages.content = self._stages()
+            time.sleep(0.5)
+        with self.lock:
+            self.session.after_run()
+            self.g_bar.value = 100.0 * job.fraction()
+            self.g_stages.content = self._stages()
+            report, picture = self.session.check_report()
+            if report is not None:
+                state = "passed" if report["passed"] else "FAILED (" + ", ".join(report["failed"]) + ")" + (", accepted" if report["accepted"] else "")
+                self.session.message = f"run's check after {report['stage']}: {state}"
+                if picture is not None:
+                    from inpaint360gs.io.images import read_image
+
+                    self.g_check_picture = getattr(self, "g_check_picture", None) or self.server.gui.add_image(np.zeros((8, 8, 3), np.uint8), label="check.png")
+                    self.g_check_picture.image = _thumb(read_image(picture)[..., :3])
+            if job.error:
+                self.session.message = f"run failed: {job.error}"
+            if self.session.available():
+                self.mode = "inpainted" if "inpainted" in self.session.available() else self.session.available()[-1]
+                self.g_mode.value = self.mode
+            self.show_splats()
+            self.show_view(self.current, move=False)
+
+    def wait_for_job(self, timeout: float | None = None) -> bool:
+        """Wait until the page has shown the finished job (tests); True when it has."""
+        if self._poller is not None:
+            self._poller.join(timeout)
+        return self._poller is None or not self._poller.is_alive()
+
+    @property
+    def port(self) -> int:
+        return self.server.get_port()
+
+    def stop(self) -> None:
+        self.server.stop()
+
+    def serve_forever(self) -> None:
+        """Serve until interrupted (Ctrl-C), then stop. A running job stops with the process;
+        ``inpaint360gs run`` (or the viewer again) resumes it from its last finished stage."""
+        try:
+            while True:
+                time.sleep(1.0)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self.stop()
+
+
+def serve(session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, block: bool = True) -> ViewerApp:
+    """Serve ``session``'s page; with ``block`` until interrupted (Ctrl-C). Warns when ``host`` is not local."""
+    warning = exposure_warning(host)
+    if warning:
+        warnings.warn(warning, stacklevel=3)
+    app = ViewerApp(session, host=host, port=port)
+    if block:
+        app.serve_forever()
+    return app

@@ -1,0 +1,375 @@
+"""What the viewer shows and does, without a web library (README "Viewer"): one scene, one run folder.
+
+* The splats of each stage of the run (:data:`MODES`: the trained 3DGS, after removal, after
+  inpainting) as the arrays a Gaussian-splat renderer takes (:func:`splat_arrays`).
+* The training cameras: their pose and frustum (:func:`camera_pose`, :func:`frustum_shape`), and the
+  pixel of the photo a ray through the frustum's image hits (:func:`pixel_from_ray`).
+* The selection (:class:`ViewerSession`): a click selects the object under it with the selection of
+  ``inpaint360gs run --click`` (:func:`inpaint360gs.remove.stage.plan_removal`, the same clicks, the
+  same settings), a click on a selected object drops it; its selection check (object / too small /
+  support / backdrop / off the click) and fill mask are shown. It can be saved as ``scene.json``'s
+  clicks.
+* The run (:class:`RunJob`): :class:`inpaint360gs.pipeline.run.Runner` in a background thread on the
+  same run folder, so OUT is what ``inpaint360gs run`` with those clicks writes (and resumes)."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.gaussians import SH_C0, Gaussians, quat_to_rotmat
+from inpaint360gs.core.layout import SCENE_JSON, RunLayout
+from inpaint360gs.io.atomic import write_text
+from inpaint360gs.io.ply import read_ply
+from inpaint360gs.io.scene import Scene, View
+from inpaint360gs.pipeline.check import CHECK_JSON, CHECK_PICTURE, selection_overlay
+from inpaint360gs.pipeline.config import RunConfig
+from inpaint360gs.pipeline.run import STAGES, Runner
+from inpaint360gs.remove.select import Click
+from inpaint360gs.remove.stage import RemovalPlan, load_field, plan_removal
+
+MODES = ("before", "removed", "inpainted")  # the splats the page can show: 3DGS, after removal, after inpainting
+
+
+def splat_arrays(g: Gaussians) -> dict[str, np.ndarray]:
+    """The Gaussians as a splat renderer takes them: ``centers`` (N, 3), ``covariances`` (N, 3, 3)
+    ``R S S^T R^T`` (Eq. 1's Sigma), ``rgbs`` (N, 3) the view-independent colour (degree-0 SH, as
+    the renderer's ``SH_C0 * dc + 0.5``, in [0, 1]) and ``opacities`` (N, 1); float32."""
+    with torch.no_grad():
+        R = quat_to_rotmat(g.quats.detach().double())
+        S = torch.diag_embed(g.scales.detach().double())
+        M = R @ S
+        cov = M @ M.transpose(1, 2)
+        rgb = torch.clamp(SH_C0 * g.sh0.detach()[:, 0, :].double() + 0.5, 0.0, 1.0)
+        return {
+            "centers": g.means.detach().float().numpy(),
+            "covariances": cov.float().numpy(),
+            "rgbs": rgb.float().numpy(),
+            "opacities": g.opacities.detach().float().numpy()[:, None],
+        }
+
+
+def _wxyz(rot: np.ndarray) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    x, y, z, w = Rotation.from_matrix(rot).as_quat()
+    return np.array([w, x, y, z])
+
+
+def camera_pose(cam: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """(wxyz, position) of the camera-to-world transform (OpenCV axes: +z forward, +y down)."""
+    R = cam.R.double().numpy()
+    return _wxyz(R.T), cam.center.double().numpy()
+
+
+def frustum_shape(cam: Camera) -> tuple[float, float]:
+    """(vertical field of view in radians, width / height) of ``cam``."""
+    return 2.0 * float(np.arctan(cam.height / (2.0 * cam.fy))), cam.width / cam.height
+
+
+def frustum_depth(fov: float, aspect: float, scale: float) -> float:
+    """Depth, in the camera's frame, of the image a frustum of ``scale`` shows (viser's frustum: the
+    pyramid of half-extents ``tan(fov/2) * aspect``, ``tan(fov/2)``, 1 normalised to volume 1/3 of
+    its box, times ``scale``)."""
+    y = np.tan(fov / 2.0)
+    return float(scale / np.cbrt(y * aspect * y / 3.0))
+
+
+def pixel_from_ray(view: View, origin, direction, depth: float) -> tuple[int, int] | None:
+    """The pixel (in ``images/`` coordinates, as a :class:`Click` takes it) of ``view``'s photo shown
+    on its frustum at ``depth`` that the world ray ``origin + s direction`` hits, or None when it
+    misses the photo. The photo spans the frustum's far rectangle, its top row at -y."""
+    cam = view.camera
+    R, t = cam.R.double().numpy(), cam.t.double().numpy()
+    o = R @ np.asarray(origin, float) + t
+    d = R @ np.asarray(direction, float)
+    if abs(d[2]) < 1e-12:
+        return None
+    s = (depth - o[2]) / d[2]
+    if s < 0:
+        return None
+    p = o + s * d
+    fov, aspect = frustum_shape(cam)
+    half_y = depth * np.tan(fov / 2.0)
+    u, v = (p[0] / (half_y * aspect) + 1.0) / 2.0, (p[1] / half_y + 1.0) / 2.0
+    if not (0.0 <= u < 1.0 and 0.0 <= v < 1.0):
+        return None
+    w, h = view.full_size or (cam.width, cam.height)
+    return min(int(u * w), w - 1), min(int(v * h), h - 1)
+
+
+def ray_through_pixel(view: View, x: int, y: int, origin, depth: float) -> np.ndarray:
+    """The world direction from ``origin`` through the centre of pixel (x, y) (``images/``
+    coordinates) of ``view``'s photo on its frustum at ``depth``: the inverse of :func:`pixel_from_ray`."""
+    cam = view.camera
+    w, h = view.full_size or (cam.width, cam.height)
+    fov, aspect = frustum_shape(cam)
+    half_y = depth * np.tan(fov / 2.0)
+    p = np.array([((x + 0.5) / w * 2.0 - 1.0) * half_y * aspect, ((y + 0.5) / h * 2.0 - 1.0) * half_y, depth])
+    R, t = cam.R.double().numpy(), cam.t.double().numpy()
+    world = R.T @ (p - t)
+    return world - np.asarray(origin, float)
+
+
+def scene_up(scene: Scene) -> np.ndarray:
+    """The scene's up direction: the training cameras' mean up (-y of the OpenCV camera), unit length."""
+    up = -np.mean([v.camera.R.double().numpy()[1] for v in scene.train_views], axis=0)
+    n = np.linalg.norm(up)
+    return up / n if n > 0 else np.array([0.0, 0.0, 1.0])
+
+
+@dataclass
+class StageState:
+    """One stage of a job as the page shows it: ``what`` waiting / running / ran / up to date / given."""
+
+    what: str = "waiting"
+    seconds: float | None = None
+    started: float | None = None  # time.monotonic() when it started running
+
+    def line(self, now: float) -> str:
+        if self.what == "running" and self.started is not None:
+            return f"running ({now - self.started:.0f} s)"
+        if self.what == "ran" and self.seconds is not None:
+            return f"ran in {self.seconds:.1f} s"
+        return self.what
+
+
+@dataclass
+class RunJob:
+    """A run of :class:`Runner` in a background thread (the page stays responsive; closing it does
+    not stop the job). ``stages``: each stage's state; ``error``: the one-line failure, if any."""
+
+    runner: Runner
+    until: str = STAGES[-1]
+    stages: dict[str, StageState] = field(default_factory=lambda: {s: StageState() for s in STAGES})
+    error: str | None = None
+    done: bool = False
+    thread: threading.Thread | None = None
+
+    def _on_stage(self, stage: str, what: str, seconds: float | None) -> None:
+        self.stages[stage] = StageState(what, seconds, time.monotonic() if what == "running" else None)
+
+    def start(self) -> "RunJob":
+        self.runner.on_stage = self._on_stage
+        self.thread = threading.Thread(target=self._run, name="inpaint360gs-run", daemon=True)
+        self.thread.start()
+        return self
+
+    def _run(self) -> None:
+        try:
+            self.runner.run(self.until)
+        except Exception as e:  # shown in the page as one line; the run's folder keeps what it wrote (run resumes it)
+            self.error = f"{type(e).__name__}: {e}"
+        finally:
+            self.done = True
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait for the job; True when it is done."""
+        if self.thread is not None:
+            self.thread.join(timeout)
+        return self.done
+
+    def fraction(self) -> float:
+        """Share of the stages finished (0..1)."""
+        stages = STAGES[: STAGES.index(self.until) + 1]
+        return sum(self.stages[s].what not in ("waiting", "running") for s in stages) / len(stages)
+
+
+class ViewerSession:
+    """The viewer's state on ``scene`` and the run folder ``out`` (absent, empty, or a run's).
+
+    Args: ``cfg`` the run's settings (the preset ``inpaint360gs run`` would use); ``model`` a trained
+    3DGS PLY (as ``run --model``); ``accept`` keep a result that fails the run's check (as ``run --accept``);
+    ``until`` the last stage the Run button runs (as ``run --until``).
+    Raises: :class:`InputError` when ``out`` holds something no run writes."""
+
+    def __init__(self, scene: Scene, out: str | Path, cfg: RunConfig, *, model: str | Path | None = None, accept: bool = False,
+                 until: str = STAGES[-1]):
+        from inpaint360gs.pipeline.run import check_run_folder
+
+        self.scene = scene
+        self.layout = RunLayout(Path(out))
+        check_run_folder(self.layout.root)
+        self.cfg = cfg.validate()
+        self.model_path = Path(model) if model is not None else None
+        if self.model_path is not None and not self.model_path.is_file():
+            raise InputError("model file not found", self.model_path)
+        self.accept = accept
+        if until not in STAGES:
+            raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", setting="until")
+        self.until = until
+        self.clicks: list[Click] = []
+        self.plan: RemovalPlan | None = None
+        self.job: RunJob | None = None
+        self.message = ""
+        self._gaussians: dict[str, tuple[float, Gaussians]] = {}
+        self.field = None
+        self.reload_field()
+
+    # --- what the run folder holds -----------------------------------------------------------------
+    def reload_field(self) -> None:
+        """Load the run's object field (``distill/``) when it exists; clicks are resolved with it."""
+        self.field = None
+        if (self.layout.distill / "classifier.json").is_file():
+            try:
+                self.field = load_field(self.layout.distill, self.scene)
+            except InputError as e:
+                self.message = f"the run's object field cannot be used: {e}"
+
+    def ply(self, mode: str) -> Path:
+        """The PLY shown for ``mode`` (one of :data:`MODES`)."""
+        if mode not in MODES:
+            raise InputError(f"unknown mode {mode!r} (one of {', '.join(MODES)})", setting="mode")
+        if mode == "before":
+            return self.model_path if self.model_path is not None else self.layout.model
+        return (self.layout.removed if mode == "removed" else self.layout.inpainted) / "point_cloud.ply"
+
+    def available(self) -> list[str]:
+        """The modes whose PLY exists."""
+        return [m for m in MODES if self.ply(m).is_file()]
+
+    def gaussians(self, mode: str) -> Gaussians | None:
+        """The Gaussians of ``mode`` (read once per file version), or None when the stage has not run."""
+        path = self.ply(mode)
+        if not path.is_file():
+            return None
+        stamp = path.stat().st_mtime
+        cached = self._gaussians.get(mode)
+        if cached is None or cached[0] != stamp:
+            cached = (stamp, read_ply(path))
+            self._gaussians[mode] = cached
+        return cached[1]
+
+    # --- the selection -------------------------------------------------------------------------------
+    def selected(self) -> np.ndarray | None:
+        """(N,) bool over the field's Gaussians (the model's): what the removal takes, or None."""
+        return None if self.plan is None else self.plan.removal.removed_mask.numpy()
+
+    def click(self, click: Click) -> str:
+        """A click on a photo: select the object under it, or drop it when it is selected already.
+        Returns the line the page shows; an :class:`InputError` (a click on empty space, on the
+        support) leaves the selection as it was and is returned as that line."""
+        try:
+            if self.field is None:  # no object field yet: kept as given, resolved once the run distilled it
+                self.clicks = [c for c in self.clicks if c != click] if click in self.clicks else [*self.clicks, click]
+                self.message = f"{len(self.clicks)} click(s); the object field does not exist yet: Run distils it and removes what they select"
+                return self.message
+            # the selection with the click added (one plan_removal: what run --click with these clicks removes)
+            plan = plan_removal(self.field, self.scene, clicks=[*self.clicks, click], cfg=self.cfg.removal, backend=self.cfg.backend)
+            picked = plan.picked[-1]
+            same = []
+            for c, p in zip(self.clicks, plan.picked[:-1]):
+                if picked.object_id is not None and p.object_id == picked.object_id:
+                    same.append(c)
+                elif picked.gaussians is not None and p.gaussians is not None and (p.gaussians & picked.gaussians).sum() > 0.5 * picked.gaussians.sum():
+                    same.append(c)
+            clicks = [*self.clicks, click]
+            if same:  # a click on a selected object drops it
+                clicks = [c for c in self.clicks if c not in same]
+                plan = plan_removal(self.field, self.scene, clicks=clicks, cfg=self.cfg.removal, backend=self.cfg.backend) if clicks else None
+        except InputError as e:
+            self.message = f"not selected: {e.args[0] if e.args else e}"
+            return self.message
+        self.clicks, self.plan = clicks, plan
+        what = f"dropped object {picked.object_id}" if same and picked.object_id is not None else "dropped" if same else f"selected ({picked.how})"
+        self.message = f"{what}; {self.verdict()}"
+        return self.message
+
+    def clear(self) -> None:
+        """Select nothing."""
+        self.clicks, self.plan, self.message = [], None, "nothing selected"
+
+    def verdict(self) -> str:
+        """The selection check of the current selection in one line."""
+        if self.plan is None:
+            return "nothing selected" if not self.clicks else "not checked yet (no object field)"
+        c = self.plan.check
+        return f"{'passed' if c.passed else 'refused'} ({c.verdict}): {c.reason}"
+
+    def save_clicks(self) -> Path:
+        """Write the selection's clicks as ``scene.json``'s ``clicks`` (atomically; its other keys
+        kept), so that ``inpaint360gs run`` without ``--click`` and the workflow reproduce it."""
+        if not self.clicks:
+            raise InputError("nothing selected: click on an object first", setting="clicks")
+        path = self.scene.root / SCENE_JSON
+        info = json.loads(path.read_text()) if path.is_file() else {}
+        if not isinstance(info, dict):
+            raise InputError("is not a JSON object", path)
+        info["clicks"] = [{"view": c.view, "x": c.x, "y": c.y} for c in self.clicks]
+        write_text(path, json.dumps(info, indent=1) + "\n")
+        self.scene.info = info
+        return path
+
+    # --- pictures ------------------------------------------------------------------------------------
+    def photo(self, view: View) -> np.ndarray:
+        """(H, W, 3) float photo of a training view with the selection's fill mask tinted and the
+        clicks on it crossed (at the scene's resolution)."""
+        img = self.scene.load_image(view).numpy()
+        mask = self.plan.masks.get(view.name) if self.plan is not None else None
+        mask = np.zeros(img.shape[:2], bool) if mask is None else mask
+        return selection_overlay(img, mask, [c.pixel(view) for c in self.clicks if self.scene.view(c.view).name == view.name])
+
+    def render(self, view: View, mode: str) -> np.ndarray | None:
+        """(H, W, 3) float render of ``mode``'s Gaussians at ``view``'s camera, or None."""
+        from inpaint360gs.render.api import render
+
+        g = self.gaussians(mode)
+        if g is None:
+            return None
+        with torch.no_grad():
+            out = render(g, view.camera, backend=self.cfg.backend)
+        return out.color.clamp(0, 1).numpy()
+
+    def side_by_side(self, view: View, mode: str) -> np.ndarray:
+        """uint8 photo (with the selection) | render of ``mode`` at that camera (black when not there yet)."""
+        photo = self.photo(view)
+        rendered = self.render(view, mode)
+        rendered = np.zeros_like(photo) if rendered is None else rendered
+        return (np.concatenate([photo, rendered], axis=1) * 255).round().astype(np.uint8)
+
+    def check_report(self) -> tuple[dict | None, Path | None]:
+        """The run's check (``check.json``) and its picture, when the run has been checked."""
+        path = self.layout.root / CHECK_JSON
+        if not path.is_file():
+            return None, None
+        picture = self.layout.root / CHECK_PICTURE
+        return json.loads(path.read_text()), picture if picture.is_file() else None
+
+    # --- the run -------------------------------------------------------------------------------------
+    def start_run(self) -> RunJob:
+        """Start the run of the selection's clicks on the run folder in a background thread (the
+        stages missing run first); :class:`InputError` before any work when nothing is selected, a
+        job is running, or the run's arguments are wrong (as ``inpaint360gs run`` says them)."""
+        if self.job is not None and not self.job.done:
+            raise InputError("a run is going on: wait for it to finish", setting="run")
+        if not self.clicks:
+            raise InputError("nothing selected: click on an object first", setting="clicks")
+        runner = Runner(self.scene, self.layout.root, self.cfg, model=self.model_path, clicks=list(self.clicks), progress=False, accept=self.accept)
+        self.job = RunJob(runner, until=self.until).start()
+        return self.job
+
+    def after_run(self) -> None:
+        """Pick up what the finished run wrote: the object field, and the selection resolved with it."""
+        had_field = self.field is not None
+        self.reload_field()
+        if self.field is not None and not had_field and self.clicks:
+            try:
+                self.plan = plan_removal(self.field, self.scene, clicks=self.clicks, cfg=self.cfg.removal, backend=self.cfg.backend)
+            except InputError as e:
+                self.message = f"the clicks select nothing in the field: {e}"
+
+
+def view_by_name(scene: Scene, name: str) -> View:
+    """The training view named ``name`` (file name or stem)."""
+    v = scene.view(name)
+    if v.is_test:
+        raise InputError(f"{v.name} is an evaluation (test_) view; the viewer shows the training views", setting="view")
+    return v

@@ -1,0 +1,128 @@
+"""The viewer's page (src/inpaint360gs/viewer/app.py) served in-process with viser: a click on the
+chosen camera's photo (a ray through its frustum, as the page sends it) selects what
+``inpaint360gs run --click`` at that pixel selects, the Run button's job writes the removal that
+``run`` writes, and headless Chromium shows the splats in the scene's colours."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+
+import numpy as np
+import pytest
+from object_fields import click_on, labelled_field, write_field
+
+pytest.importorskip("viser", reason="the viewer extra is not installed (pip install -e .[viewer])")
+
+from inpaint360gs.cli import main  # noqa: E402
+from inpaint360gs.io.images import write_image  # noqa: E402
+from inpaint360gs.io.scene import load_scene  # noqa: E402
+from inpaint360gs.pipeline.presets import get_preset  # noqa: E402
+from inpaint360gs.remove.select import Click  # noqa: E402
+from inpaint360gs.viewer.browser import Browser, chromium  # noqa: E402
+from inpaint360gs.viewer.app import SELECTED_TINT, ViewerApp, exposure_warning  # noqa: E402
+from inpaint360gs.viewer.session import ViewerSession, frustum_depth, frustum_shape, ray_through_pixel, splat_arrays  # noqa: E402
+
+BLOB_1 = (0.45, 0.0, 0.25)  # scene_builder.blobs_model's first blob (label 1)
+BLOB_2 = (-0.45, 0.0, 0.25)
+
+
+def click_in_page(app: ViewerApp, c: Click) -> str | None:
+    """What the page does for a click on the chosen camera's photo at ``c``: a ray from a point in
+    front of the scene through that pixel of the photo on the frustum."""
+    view = app.scene.view(c.view)
+    app.show_view(view)
+    fov, aspect = frustum_shape(view.camera)
+    origin = view.camera.center.double().numpy() * 1.7
+    return app.on_frustum_click(view.name, origin, ray_through_pixel(view, c.x, c.y, origin, frustum_depth(fov, aspect, app.scale)))
+
+
+def test_only_a_host_beyond_this_machine_is_warned_about():
+    assert exposure_warning("127.0.0.1") is None and exposure_warning("localhost") is None
+    assert "no login" in exposure_warning("0.0.0.0")
+
+
+@pytest.mark.slow
+def test_the_page_click_and_run_button_give_what_run_click_gives(tiny_scene, tmp_path):
+    """segment, associate and distill once (run --until distill); a copy of that run folder for the
+    viewer; the page's click, then its Run button, against ``run --click`` at that pixel."""
+    from inpaint360gs.cli.run import add_arguments, run_config
+
+    root, model = tiny_scene
+    scene = load_scene(root)
+    out_cli, out_view = tmp_path / "cli", tmp_path / "view"
+    common = [str(root), str(out_cli), "--model", str(model), "--distill-iterations", "20", "--no-progress", "--accept"]
+    assert main(["run", *common, "--until", "distill", "--id", "1"]) == 0
+    shutil.copytree(out_cli, out_view)
+
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    cfg = run_config(parser.parse_args(common))  # the settings `run` ran with
+    session = ViewerSession(scene, out_view, cfg, model=model, accept=True, until="remove")
+    app = ViewerApp(session, port=0)
+    try:
+        v = scene.train_views[0]
+        c = click_on(v, BLOB_1)
+        line = click_in_page(app, c)
+        assert session.clicks == [c], line
+        assert session.plan is not None and session.plan.targets == [1]
+        job = app.run()
+        assert job is not None and app.wait_for_job(600) and job.error is None, job.error
+        assert [job.stages[s].what for s in ("segment", "associate", "distill", "remove")] == ["up to date"] * 3 + ["ran"]
+        assert "remove: ran in" in app.g_stages.content and "removed" in session.available()
+    finally:
+        app.stop()
+    assert main(["run", *common, "--until", "remove", "--click", str(c)]) == 0
+    for name in ("point_cloud.ply", "removed.ply", "removed_index.npy"):
+        assert (out_view / "removed" / name).read_bytes() == (out_cli / "removed" / name).read_bytes(), name
+    assert (out_view / "check.json").is_file()
+    # the run folder is run's: run with the same click finds everything up to date
+    assert main(["run", *common[:1], str(out_view), *common[2:], "--until", "remove", "--click", str(c)]) == 0
+
+
+def share_near(img: np.ndarray, rgb: np.ndarray, tol: float = 0.15) -> float:
+    return float((np.abs(img - rgb).max(axis=-1) < tol).mean())
+
+
+@pytest.mark.skipif(chromium() is None, reason="no chromium (Debian's chromium package; .ci/run installs it)")
+def test_the_browser_shows_the_splats_in_the_scenes_colours_and_the_selection(make_blobs_scene, tmp_path):
+    root, model, labels = make_blobs_scene("shot", n_views=10)
+    scene = load_scene(root)
+    from inpaint360gs.io.ply import write_ply
+
+    write_ply(tmp_path / "model.ply", model)
+    out = tmp_path / "run"
+    write_field(out / "distill", labelled_field(model, labels, [0, 3, 7]), scene)
+    session = ViewerSession(scene, out, get_preset("cpu"), model=tmp_path / "model.ply")
+    app = ViewerApp(session, port=0)
+    try:
+        app.click(click_on(scene.train_views[0], BLOB_2))
+        assert session.plan.targets == [7]
+        rgbs, lab = splat_arrays(model)["rgbs"], labels.numpy()
+        blob1 = rgbs[lab == 1].mean(axis=0)
+        blob2_tinted = (0.5 * rgbs[lab == 2] + 0.5 * SELECTED_TINT).mean(axis=0)
+        browser = Browser()
+        try:
+            browser.call("Page.navigate", url=f"http://127.0.0.1:{app.port}")
+            # the splats fade in as their data arrives: screenshots until both blobs are there (each some
+            # 0.2 % of the 1280x800 page; the floor's colours are far from both), or the last after 2 min
+            browser.wait_for(lambda im: share_near(im / 255.0, blob1) > 0.0008 and share_near(im / 255.0, blob2_tinted) > 0.0008)
+            time.sleep(2.0)  # the fade-in's end, and the panel's pictures
+            raw = browser.screenshot()
+        finally:
+            browser.close()
+    finally:
+        app.stop()
+    img = raw / 255.0
+    shot = tmp_path / "viewer.png"
+    write_image(shot, raw.astype(np.uint8))
+    assert img.std() > 0.05  # not blank
+    assert share_near(img, blob1) > 0.0008, "the unselected blob's colour is not on the page"
+    assert share_near(img, blob2_tinted) > 0.0008, "the selected blob is not drawn tinted"
+    assert share_near(img, rgbs[lab == 2].mean(axis=0)) < 0.2 * share_near(img, blob2_tinted)  # drawn tinted, not in its own colour
+    keep = os.environ.get("INPAINT360GS_VIEWER_SCREENSHOT")  # README's picture: INPAINT360GS_VIEWER_SCREENSHOT=docs/images/viewer.png
+    if keep:
+        shutil.copyfile(shot, keep)

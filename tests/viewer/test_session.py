@@ -1,0 +1,134 @@
+"""The viewer's state (src/inpaint360gs/viewer/session.py) on the blobs scene with a labelled field,
+where every Gaussian's object is known: a click selects what ``plan_removal`` (the selection of
+``inpaint360gs run --click``) selects for that click, a click on a selected object drops it, the
+frustum's ray gives back the pixel it went through, and the clicks saved to scene.json read back."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from object_fields import click_on, labelled_field, write_field
+
+from inpaint360gs.core.errors import InputError
+from inpaint360gs.io.scene import load_scene
+from inpaint360gs.pipeline.presets import get_preset
+from inpaint360gs.pipeline.run import scene_clicks
+from inpaint360gs.remove.check import OBJECT
+from inpaint360gs.remove.select import Click, clicks_from_json
+from inpaint360gs.remove.stage import plan_removal
+from inpaint360gs.viewer.session import ViewerSession, camera_pose, frustum_depth, frustum_shape, pixel_from_ray, ray_through_pixel, splat_arrays
+
+IDS = [0, 3, 7]
+BLOB_1 = (0.45, 0.0, 0.25)  # scene_builder.blobs_model's first blob (label 1)
+BLOB_2 = (-0.45, 0.0, 0.25)
+
+
+@pytest.fixture(scope="module")
+def blobs(make_blobs_scene):
+    root, model, labels = make_blobs_scene("viewer", n_views=10)
+    scene = load_scene(root)
+    field = labelled_field(model, labels, IDS)
+    return scene, model, labels.numpy(), field
+
+
+@pytest.fixture
+def session(blobs, tmp_path):
+    scene, _, _, field = blobs
+    write_field(tmp_path / "run" / "distill", field, scene)
+    return ViewerSession(scene, tmp_path / "run", get_preset("cpu"))
+
+
+def test_a_click_selects_what_run_click_selects_and_a_second_click_drops_it(blobs, session):
+    scene, _, labels, field = blobs
+    v = scene.train_views[0]
+    c1 = click_on(v, BLOB_1)
+    session.click(c1)
+    ref = plan_removal(field, scene, clicks=[c1], cfg=session.cfg.removal, backend=session.cfg.backend)
+    assert np.array_equal(session.selected(), ref.removal.removed_mask.numpy())
+    assert session.plan.targets == ref.targets == [3]  # blob 1 is object 3 of the field
+    assert session.plan.check.verdict == OBJECT and session.verdict().startswith("passed (object): ")
+    assert (session.selected() == (labels == 1)).mean() > 0.95
+    # a second object, from another view: both are removed, as run with both clicks removes them
+    c2 = click_on(scene.train_views[3], BLOB_2)
+    session.click(c2)
+    both = plan_removal(field, scene, clicks=[c1, c2], cfg=session.cfg.removal, backend=session.cfg.backend)
+    assert session.clicks == [c1, c2] and np.array_equal(session.selected(), both.removal.removed_mask.numpy())
+    # a click on blob 1 elsewhere drops it, and only it
+    session.click(click_on(scene.train_views[5], BLOB_1))
+    assert session.clicks == [c2] and session.plan.targets == [7]
+    assert np.array_equal(session.selected(), plan_removal(field, scene, clicks=[c2], cfg=session.cfg.removal).removal.removed_mask.numpy())
+
+
+def test_a_click_on_nothing_keeps_the_selection_and_says_why(blobs, session):
+    scene = blobs[0]
+    v = scene.train_views[0]
+    session.click(click_on(v, BLOB_1))
+    before = session.selected().copy()
+    line = session.click(Click(v.name, 0, 0))  # the corner shows the sky: nothing rendered there
+    assert line.startswith("not selected:") and "empty space" in line
+    assert np.array_equal(session.selected(), before)
+
+
+def test_the_photo_shows_the_selection_and_the_render_sits_beside_it(blobs, session):
+    scene = blobs[0]
+    v = scene.train_views[0]
+    plain = session.photo(v)
+    session.click(click_on(v, BLOB_1))
+    shown = session.photo(v)
+    mask = session.plan.masks[v.name]
+    assert mask.any() and not np.allclose(shown[mask], plain[mask]) and np.allclose(shown[~mask][:50], plain[~mask][:50])
+    pair = session.side_by_side(v, "before")
+    h, w = v.camera.height, v.camera.width
+    assert pair.shape == (h, 2 * w, 3) and pair.dtype == np.uint8
+    assert not pair[:, w:].any()  # no 3DGS in this run folder: the render half is black
+
+
+def test_saved_clicks_are_what_scene_json_gives_run(blobs, session):
+    scene = blobs[0]
+    c = click_on(scene.train_views[0], BLOB_1)
+    session.click(c)
+    path = scene.root / "scene.json"
+    assert not path.exists()
+    assert session.save_clicks() == path and json.loads(path.read_text()) == {"clicks": [{"view": c.view, "x": c.x, "y": c.y}]}
+    path.write_text(json.dumps({"objects": [{"id": 1}], "clicks": []}))  # the other keys are kept
+    session.save_clicks()
+    saved = json.loads(path.read_text())
+    assert saved["objects"] == [{"id": 1}] and clicks_from_json(saved["clicks"], path) == [c]
+    assert scene_clicks(load_scene(scene.root)) == [c]  # what inpaint360gs run takes without --click
+    session.clear()
+    with pytest.raises(InputError, match="nothing selected"):
+        session.save_clicks()
+    path.unlink()
+
+
+def test_a_ray_through_a_pixel_of_the_frustum_photo_gives_that_pixel(blobs):
+    scene = blobs[0]
+    for v in scene.train_views[:3]:
+        fov, aspect = frustum_shape(v.camera)
+        depth = frustum_depth(fov, aspect, 0.1)
+        w, h = v.full_size or (v.camera.width, v.camera.height)
+        for origin in ([0.0, 0.0, 0.0], v.camera.center.double().numpy(), [3.0, -2.0, 1.0]):
+            for x, y in ((0, 0), (w - 1, h - 1), (w // 3, h // 2)):
+                d = ray_through_pixel(v, x, y, origin, depth)
+                assert pixel_from_ray(v, origin, d, depth) == (x, y)
+        centre = v.camera.center.double().numpy()
+        assert pixel_from_ray(v, centre, -ray_through_pixel(v, 1, 1, centre, depth), depth) is None  # behind the camera
+
+
+def test_camera_pose_and_splat_arrays(blobs):
+    from scipy.spatial.transform import Rotation
+
+    scene, model, _, _ = blobs
+    cam = scene.train_views[0].camera
+    wxyz, pos = camera_pose(cam)
+    R_cw = Rotation.from_quat([*wxyz[1:], wxyz[0]]).as_matrix()
+    assert np.allclose(R_cw, cam.R.double().numpy().T, atol=1e-6) and np.allclose(pos, cam.center.double().numpy())
+    arr = splat_arrays(model)
+    n = len(model)
+    assert arr["centers"].shape == (n, 3) and arr["covariances"].shape == (n, 3, 3) and arr["opacities"].shape == (n, 1)
+    # covariance eigenvalues are the squared scales
+    ev = np.sort(np.linalg.eigvalsh(arr["covariances"][:5].astype(np.float64)), axis=1)
+    assert np.allclose(ev, np.sort(model.scales[:5].double().numpy() ** 2, axis=1), rtol=1e-3)
+    assert (arr["rgbs"] >= 0).all() and (arr["rgbs"] <= 1).all()
