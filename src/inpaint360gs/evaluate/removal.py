@@ -17,12 +17,12 @@
   a property of the removal, not of the task (that is the unseen share).
 - **ground-truth scores** of a synthetic scene (``gt/``): residual, collateral and the true
   footprint's share of the training views (:mod:`inpaint360gs.metrics.removal`), with the edited and
-  the original model rendered at the training cameras. A scene posed by structure from motion has
-  its cameras (and models) in the reconstruction's frame: its depths are brought into the
-  generator's units by the scale of the similarity that maps the scene's camera centres onto the
-  true ones (``gt/cameras.json``, least squares, Umeyama 1991); the rules compare depths relative to
-  the true ones and images pixel for pixel (the photos are the generator's), so only that scale
-  matters. :func:`removal_scores`.
+  the original model rendered at the training cameras. The rules compare images pixel for pixel
+  (the photos are the generator's), the edited model's depths with the original model's, and the
+  true depths with each other, so a scene posed by structure from motion (its cameras and models
+  in the reconstruction's frame) needs no alignment. ``scale_to_truth`` (the scale of the
+  similarity mapping the scene's camera centres onto ``gt/cameras.json``'s, least squares, Umeyama
+  1991) is reported beside the scores as a diagnostic of the frame. :func:`removal_scores`.
 
 Each is a property of each run's own removal (a method with another association, or another seed,
 has another one).
@@ -226,7 +226,7 @@ def removal_scores(removed_dir: str | Path, scene: Scene, backend: str = "auto")
     ``scores`` (``amcr``, ``residual``, ``collateral``, ``gt_footprint_share``, ``amcr_ratio``; percent,
     the ratio a multiple), ``null_reasons`` for those that are None, ``limits`` and ``above_limits``
     (:func:`inpaint360gs.metrics.removal.limits_exceeded`), per-view counts, ``definitions`` and the
-    scale applied to the scene's depths. AMCR needs no ground truth; the others are None with the
+    frame's scale against the truth (a diagnostic; no score uses it). AMCR needs no ground truth; the others are None with the
     reason without ``gt/``, and residual alone without ``gt/depth_free``."""
     removed_dir = Path(removed_dir)
     root = Path(scene.root)
@@ -252,7 +252,7 @@ def removal_scores(removed_dir: str | Path, scene: Scene, backend: str = "auto")
             d_free = _truth_array(root / "gt" / "depth_free" / f"{v.stem}.npy", shape, f"gt/depth_free of {v.name}") if has_free else np.full(shape, np.inf)
             o_edit = render(edited, v.camera, backend=backend)
             o_orig = render(original, v.camera, backend=backend)
-            c = scores.view_counts(fp, d_with, d_free, normalised_depth(o_edit).double().numpy() * scale, o_edit.alpha.double().numpy(),
+            c = scores.view_counts(fp, d_with, d_free, normalised_depth(o_orig).double().numpy(), normalised_depth(o_edit).double().numpy(), o_edit.alpha.double().numpy(),
                                    o_orig.color.double().numpy(), o_edit.color.double().numpy())
             per_view[v.name] = {k: getattr(c, k) for k in ("footprint", "residual", "outside", "collateral", "pixels")}
             total = total + c
