@@ -6,8 +6,9 @@ For each synthetic scene and each seed, ``inpaint360gs run SCENE OUT --until rem
 3DGS and every later stage reseeded; the scene's own clicks) and then ``inpaint360gs score-removal``
 (:mod:`inpaint360gs.evaluate.removal`). A run is judged by the worst seed, not the mean: the table
 gives every run, then per scene the worst residual and collateral, then the runs above a limit by
-name. Finished runs (their ``removal_scores.json``) are reused, so the script resumes; a run whose
-check failed (exit 4) keeps its folder for inspection and is scored all the same.
+name. Finished runs (``OUT/<scene>/seed<S>.row.json`` beside the run folder) are reused, so the
+script resumes; delete one to rerun it (``run`` resumes its stages and its check). A run whose check
+failed (exit 4) keeps its folder for inspection and is scored all the same.
 
     inpaint360gs-dataset synth data/dev --scenes teapot-test2 dozer-test1 duck-dev1
     python benchmarks/bench_removal_seeds.py data/dev runs/dev --scenes teapot-test2 dozer-test1 duck-dev1 --seeds 0 1 2
@@ -30,8 +31,8 @@ EXIT_CHECK_FAILED = 4  # inpaint360gs.core.errors.CheckFailedError's exit code
 
 def run_one(scene: Path, out: Path, seed: int, threads: int) -> dict:
     """One run to the removal and its scores; the record of the table's row."""
-    scores_path = out / "removal_scores.json"
-    row_path = out / "bench_row.json"
+    scores_path = out.parent / f"{out.name}.removal_scores.json"  # beside the run folder: a run's OUT holds only its stages
+    row_path = out.parent / f"{out.name}.row.json"
     if row_path.is_file() and scores_path.is_file():
         return json.loads(row_path.read_text())
     inp = shutil.which("inpaint360gs") or str(Path(sys.executable).with_name("inpaint360gs"))
