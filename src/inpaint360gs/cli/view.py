@@ -15,7 +15,7 @@ from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, a
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``inpaint360gs view``'s arguments to ``parser``."""
     from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS
-    from inpaint360gs.viewer.api import DEFAULT_PORT, DEFAULT_SPLATS
+    from inpaint360gs.viewer.server import DEFAULT_PORT, DEFAULT_SPLATS
 
     parser.add_argument("scene", type=existing_dir, help="scene folder (images/, sparse/0, scene.json, ...)")
     parser.add_argument("out", type=output_dir, nargs="?", default=None, help="the run's folder, as inpaint360gs run's OUT (default: runs/<scene name>)")
@@ -35,23 +35,29 @@ def run(args: argparse.Namespace) -> int:
     """Run ``inpaint360gs view`` with parsed ``args`` (serves until Ctrl-C); returns the exit status."""
     from dataclasses import replace
 
-    from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.pipeline.presets import get_preset
-    from inpaint360gs.viewer.api import view
-    from inpaint360gs.viewer.app import exposure_warning
+    from inpaint360gs.viewer.server import exposure_warning, start_server
 
-    set_threads(args.threads)
-    scene = load_scene(args.scene, resize=args.resize, load_masks=False)
-    cfg = get_preset(args.preset)
-    if args.backend is not None:
-        cfg = replace(cfg, backend=args.backend)
-    warning = exposure_warning(args.host)
-    if warning:
-        print(f"warning: {warning}", flush=True)
-    with warnings.catch_warnings():  # said above, as one line
-        warnings.simplefilter("ignore")
-        app = view(scene, args.out, cfg=cfg, model=args.model, host=args.host, port=args.port, accept=args.accept, block=False, max_splats=args.max_splats,
-                   on_ready=lambda port: print(f"inpaint360gs view: http://{args.host}:{port} (Ctrl-C to stop)", flush=True))  # fmt: skip
+    server = start_server(args.host, args.port)  # before torch is imported: the browser loads the page meanwhile
+    try:
+        from inpaint360gs.io.scene import load_scene
+        from inpaint360gs.pipeline.presets import get_preset
+        from inpaint360gs.viewer.api import view
+
+        warning = exposure_warning(args.host)
+        if warning:
+            print(f"warning: {warning}", flush=True)
+        print(f"inpaint360gs view: http://{args.host}:{server.get_port()} (Ctrl-C to stop)", flush=True)
+        set_threads(args.threads)
+        scene = load_scene(args.scene, resize=args.resize, load_masks=False)
+        cfg = get_preset(args.preset)
+        if args.backend is not None:
+            cfg = replace(cfg, backend=args.backend)
+        with warnings.catch_warnings():  # said above, as one line
+            warnings.simplefilter("ignore")
+            app = view(scene, args.out, cfg=cfg, model=args.model, accept=args.accept, block=False, max_splats=args.max_splats, server=server)
+    except BaseException:
+        server.stop()
+        raise
     print(f"inpaint360gs view: run folder {app.session.layout.root}; the scene is loaded", flush=True)
     app.serve_forever()
     return 0

@@ -1,5 +1,5 @@
-"""The viewer's page (README "Viewer"), built on viser: the only module that imports it (an optional
-extra, ``pip install -e .[viewer]``). What it shows and does is :class:`.session.ViewerSession`'s;
+"""The viewer's page (README "Viewer"), built on viser (an optional extra, ``pip install -e
+.[viewer]``; :mod:`.server` starts its server). What it shows and does is :class:`.session.ViewerSession`'s;
 this module puts it in the page and turns the page's events into the session's calls.
 
 * The splats of the chosen stage (before / removed / inpainted) with viser's Gaussian splats, each
@@ -26,20 +26,12 @@ import numpy as np
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.pipeline.run import STAGES
 from inpaint360gs.remove.select import Click
+from inpaint360gs.viewer.server import exposure_warning
 from inpaint360gs.viewer.session import MODES, ViewerSession, camera_pose, frustum_depth, frustum_shape, pixel_from_ray, scene_up, splat_arrays
 
-LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 SELECTED_TINT = np.array([1.0, 0.1, 0.1], np.float32)  # colour the selected Gaussians are drawn in (half-blended)
 THUMB_WIDTH = 320  # the photos on the frustums are sent at most this wide
 SELECTION_GROWTH = 1.3  # the selection's tinted splats are drawn this much larger than the Gaussians
-
-
-def exposure_warning(host: str) -> str | None:
-    """The warning printed when the viewer serves beyond this machine, or None for a local host."""
-    if host in LOCAL_HOSTS:
-        return None
-    return (f"serving on {host}: anyone who can reach this machine can see the scene, run stages that write into the run folder "
-            "and overwrite scene.json's clicks; the page has no login")  # fmt: skip
 
 
 def _thumb(img: np.ndarray) -> np.ndarray:
