@@ -6,8 +6,9 @@ this module puts it in the page and turns the page's events into the session's c
   stage's sent once and shown or hidden. Only the ``max_splats`` most opaque are drawn unless the
   panel's "splats" says all (a browser without a GPU draws a few thousand splats in seconds, the
   tens of thousands of a trained scene in tens of seconds). The selected ones among them are drawn
-  over them tinted red (a node of their own, so a click sends only the selection). Clicking on the splats selects the object the ray hits first
-  (:meth:`.session.ViewerSession.click_ray`: the photo click at the pixel it projects to).
+  over them tinted red (a node of their own, so a click sends only the selection). Clicking on the
+  splats selects the object the ray hits first (:meth:`.session.ViewerSession.click_ray`: the
+  photo click at the pixel it projects to).
 * Each training camera as a frustum with its photo. Clicking a frustum chooses that camera (the
   page's camera moves to it; the panel shows the photo with the selection beside the render at that
   camera); clicking on the chosen camera's photo selects the object under that pixel, or drops it.
@@ -51,7 +52,7 @@ class ViewerApp:
         """``server``: a viser server already serving (:func:`inpaint360gs.viewer.api.view` starts it
         first, so that the browser loads the page while the scene loads), else one on ``host``:``port``.
         ``max_splats``: the most opaque splats drawn (0: all; the panel can switch to all; the
-        viewer's command draws :data:`inpaint360gs.viewer.api.DEFAULT_SPLATS`). The splats
+        viewer's command draws :data:`inpaint360gs.viewer.server.DEFAULT_SPLATS`). The splats
         are sent before this returns; the cameras with their photos and the panel's render follow in
         a thread (``background``; else before returning): :meth:`wait_loaded` waits for them."""
         import viser
