@@ -6,8 +6,8 @@ this module puts it in the page and turns the page's events into the session's c
   stage's sent once and shown or hidden. Only the ``max_splats`` most opaque are drawn unless the
   panel's "splats" says all (a browser without a GPU draws a few thousand splats in seconds, the
   tens of thousands of a trained scene in tens of seconds). The selected ones among them are drawn
-  over them tinted red (a node of their own, so a click sends only the selection). Clicking on the
-  splats selects the object the ray hits first (:meth:`.session.ViewerSession.click_ray`: the
+  over them tinted red (a node of their own, so a click sends only the selection). Shift-clicking on
+  the splats selects the object the ray hits first (:meth:`.session.ViewerSession.click_ray`: the
   photo click at the pixel it projects to).
 * Each training camera as a frustum with its photo. Clicking a frustum chooses that camera (the
   page's camera moves to it; the panel shows the photo with the selection beside the render at that
@@ -72,6 +72,9 @@ class ViewerApp:
         self._poller = None
         self.server.scene.set_up_direction(tuple(scene_up(self.scene)))
         self._build_gui()
+        # viser's splat nodes report no clicks: a shift-click anywhere in the scene gives the ray (a plain
+        # click stays the frustums' and the camera's)
+        self.server.scene.on_click(modifier="shift")(lambda e: self.on_splat_click(e.ray_origin, e.ray_direction))
         self.show_splats()
         self._loader = threading.Thread(target=self._load_rest, name="inpaint360gs-viewer-load", daemon=True)
         if background:
@@ -174,7 +177,6 @@ class ViewerApp:
                         keep = np.sort(np.argsort(-arr["opacities"][:, 0], kind="stable")[: self.max_splats])
                         arr = {k: a[keep] for k, a in arr.items()}
                     node = self.server.scene.add_gaussian_splats(f"/splats/{self.mode}", **arr)
-                    node.on_click(lambda e: self.on_splat_click(e.ray_origin, e.ray_direction))
                     self.splats[self.mode] = (stamp, self.max_splats, keep, node)
             for mode, (*_, node) in self.splats.items():
                 node.visible = mode == self.mode and g is not None
@@ -208,7 +210,6 @@ class ViewerApp:
             arr["covariances"] = arr["covariances"] * SELECTION_GROWTH**2
             arr["opacities"] = np.maximum(arr["opacities"], 0.9)
             self.selection_node = self.server.scene.add_gaussian_splats("/selection", **arr)
-            self.selection_node.on_click(lambda e: self.on_splat_click(e.ray_origin, e.ray_direction))
 
     def set_mode(self, mode: str) -> None:
         with self.lock:
