@@ -83,20 +83,25 @@ def test_the_page_click_and_run_button_give_what_run_click_gives(tiny_scene, tmp
     assert main(["run", *common[:1], str(out_view), *common[2:], "--until", "remove", "--click", str(c)]) == 0
 
 
+def blobs_session(make_blobs_scene, tmp_path, name: str, n_views: int):
+    """(scene, model, labels, session) on a blobs scene whose run folder holds a labelled field."""
+    from inpaint360gs.io.ply import write_ply
+
+    root, model, labels = make_blobs_scene(name, n_views=n_views)
+    scene = load_scene(root)
+    write_ply(tmp_path / "model.ply", model)
+    out = tmp_path / "run"
+    write_field(out / "distill", labelled_field(model, labels, [0, 3, 7]), scene)
+    return scene, model, labels, ViewerSession(scene, out, get_preset("cpu"), model=tmp_path / "model.ply")
+
+
 def share_near(img: np.ndarray, rgb: np.ndarray, tol: float = 0.15) -> float:
     return float((np.abs(img - rgb).max(axis=-1) < tol).mean())
 
 
 @pytest.mark.skipif(chromium() is None, reason="no chromium (Debian's chromium package; .ci/run installs it)")
 def test_the_browser_shows_the_splats_in_the_scenes_colours_and_the_selection(make_blobs_scene, tmp_path):
-    root, model, labels = make_blobs_scene("shot", n_views=10)
-    scene = load_scene(root)
-    from inpaint360gs.io.ply import write_ply
-
-    write_ply(tmp_path / "model.ply", model)
-    out = tmp_path / "run"
-    write_field(out / "distill", labelled_field(model, labels, [0, 3, 7]), scene)
-    session = ViewerSession(scene, out, get_preset("cpu"), model=tmp_path / "model.ply")
+    scene, model, labels, session = blobs_session(make_blobs_scene, tmp_path, "shot", 10)
     app = ViewerApp(session, port=0)
     try:
         app.click(click_on(scene.train_views[0], BLOB_2))
@@ -126,3 +131,28 @@ def test_the_browser_shows_the_splats_in_the_scenes_colours_and_the_selection(ma
     keep = os.environ.get("INPAINT360GS_VIEWER_SCREENSHOT")  # README's picture: INPAINT360GS_VIEWER_SCREENSHOT=docs/images/viewer.png
     if keep:
         shutil.copyfile(shot, keep)
+
+
+def test_the_page_draws_the_most_opaque_splats_and_the_selected_ones_among_them(make_blobs_scene, tmp_path):
+    """In-process (no browser): with ``max_splats`` the 'before' node holds the most opaque splats,
+    a click's selection node the selected ones among them, and "all" sends every splat (and the
+    whole selection)."""
+    scene, model, labels, session = blobs_session(make_blobs_scene, tmp_path, "few", 6)
+    k = len(model) // 3
+    app = ViewerApp(session, port=0, max_splats=k, background=False)
+    try:
+        _, _, keep, node = app.splats["before"]
+        opacity = model.opacities.detach().numpy()
+        assert len(keep) == k and node.buffer.shape[0] == k and opacity[keep].min() >= np.delete(opacity, keep).max()
+        centres = node.buffer[:, :3].view(np.float32)
+        assert np.allclose(centres, model.means.detach().numpy()[keep])
+        app.click(click_on(scene.train_views[0], BLOB_2))
+        sel = session.selected()
+        shown = keep[sel[keep]]
+        assert len(shown) > 0 and app.selection_node.buffer.shape[0] == len(shown)
+        assert np.allclose(app.selection_node.buffer[:, :3].view(np.float32), model.means.detach().numpy()[shown])
+        app.set_max_splats(0)
+        assert app.splats["before"][2] is None and app.splats["before"][3].buffer.shape[0] == len(model)
+        assert app.selection_node.buffer.shape[0] == int(sel.sum())
+    finally:
+        app.stop()

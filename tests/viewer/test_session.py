@@ -1,7 +1,8 @@
 """The viewer's state (src/inpaint360gs/viewer/session.py) on the blobs scene with a labelled field,
 where every Gaussian's object is known: a click selects what ``plan_removal`` (the selection of
 ``inpaint360gs run --click``) selects for that click, a click on a selected object drops it, the
-frustum's ray gives back the pixel it went through, and the clicks saved to scene.json read back."""
+frustum's ray gives back the pixel it went through, a ray through the splats selects what the photo
+click at the pixel it projects to selects, and the clicks saved to scene.json read back."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from inpaint360gs.pipeline.run import scene_clicks
 from inpaint360gs.remove.check import OBJECT
 from inpaint360gs.remove.select import Click, clicks_from_json
 from inpaint360gs.remove.stage import plan_removal
-from inpaint360gs.viewer.session import ViewerSession, camera_pose, frustum_depth, frustum_shape, pixel_from_ray, ray_through_pixel, splat_arrays
+from inpaint360gs.viewer.session import ViewerSession, camera_pose, click_at_point, ray_hit, frustum_depth, frustum_shape, pixel_from_ray, ray_through_pixel, splat_arrays
 
 IDS = [0, 3, 7]
 BLOB_1 = (0.45, 0.0, 0.25)  # scene_builder.blobs_model's first blob (label 1)
@@ -132,3 +133,50 @@ def test_camera_pose_and_splat_arrays(blobs):
     ev = np.sort(np.linalg.eigvalsh(arr["covariances"][:5].astype(np.float64)), axis=1)
     assert np.allclose(ev, np.sort(model.scales[:5].double().numpy() ** 2, axis=1), rtol=1e-3)
     assert (arr["rgbs"] >= 0).all() and (arr["rgbs"] <= 1).all()
+
+
+def test_a_ray_through_the_splats_selects_what_the_photo_click_at_its_pixel_selects(blobs, session):
+    """A ray from a training camera's centre through blob 2's centre: it hits blob 2's front surface
+    (between the camera and the centre, on the ray), the view looking along it is that camera, the
+    pixel is where the blob's centre projects, and the selection is the photo click's there."""
+    scene, model, labels, field = blobs
+    v = scene.train_views[2]
+    origin = v.camera.center.double().numpy()
+    centre = np.asarray(BLOB_2)
+    d = centre - origin
+    hit = ray_hit(field.gaussians, origin, d)
+    assert hit is not None
+    s = float((hit - origin) @ d / (d @ d))
+    assert 0.8 < s < 1.0 and np.linalg.norm(np.cross(hit - origin, d)) / np.linalg.norm(d) < 1e-9  # in front of the centre, on the ray
+    ref_click = click_on(v, BLOB_2)
+    c, line = session.click_ray(origin, d)
+    assert c is not None and c.view == v.name and abs(c.x - ref_click.x) <= 1 and abs(c.y - ref_click.y) <= 1, (c, ref_click)
+    ref = plan_removal(field, scene, clicks=[c], cfg=session.cfg.removal, backend=session.cfg.backend)
+    assert session.clicks == [c] and session.plan.targets == ref.targets == [7], line
+    assert np.array_equal(session.selected(), ref.removal.removed_mask.numpy())
+    assert (session.selected() == (labels == 2)).mean() > 0.95
+    # the same click at the photo drops it again: one code path
+    session.click(c)
+    assert session.clicks == [] and session.plan is None
+    # a ray into the sky hits nothing and leaves the selection as it was
+    up = -v.camera.R.double().numpy()[1]
+    assert ray_hit(field.gaussians, origin, up) is None
+    assert session.click_ray(origin, up)[0] is None and session.clicks == []
+    # a point behind every camera is in no view
+    assert click_at_point(scene, origin + 100.0 * (origin - centre), d) is None
+
+
+def test_ray_hit_takes_the_front_surface_of_two_gaussians_in_a_row():
+    """Two opaque unit Gaussians on the x axis at 2 and 5: a ray from the origin along +x hits the
+    first at its closest approach (its centre); from 10 along -x, the second."""
+    import torch
+
+    from inpaint360gs.core.gaussians import Gaussians
+
+    n = 2
+    g = Gaussians(means=torch.tensor([[2.0, 0, 0], [5.0, 0, 0]]), log_scales=torch.full((n, 3), float(np.log(0.3))), quats=torch.tensor([[1.0, 0, 0, 0]] * n),
+                  opacity_logits=torch.full((n,), float(np.log(0.95 / 0.05))), sh0=torch.zeros(n, 1, 3), shN=torch.zeros(n, 0, 3))  # fmt: skip
+    assert np.allclose(ray_hit(g, [0, 0, 0], [1, 0, 0]), [2, 0, 0])
+    assert np.allclose(ray_hit(g, [10, 0, 0], [-1, 0, 0]), [5, 0, 0])
+    assert np.allclose(ray_hit(g, [0, 0.1, 0], [1, 0, 0]), [2, 0.1, 0])  # the closest approach lies on the ray
+    assert ray_hit(g, [0, 2, 0], [1, 0, 0]) is None  # passes both by

@@ -15,7 +15,7 @@ from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, a
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``inpaint360gs view``'s arguments to ``parser``."""
     from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS
-    from inpaint360gs.viewer.api import DEFAULT_PORT
+    from inpaint360gs.viewer.server import DEFAULT_PORT, DEFAULT_SPLATS
 
     parser.add_argument("scene", type=existing_dir, help="scene folder (images/, sparse/0, scene.json, ...)")
     parser.add_argument("out", type=output_dir, nargs="?", default=None, help="the run's folder, as inpaint360gs run's OUT (default: runs/<scene name>)")
@@ -23,6 +23,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default=DEFAULT_PRESET, choices=list(PRESETS), help=f"the run's settings (default {DEFAULT_PRESET}, as inpaint360gs run)")
     parser.add_argument("--port", type=nonneg_int, default=DEFAULT_PORT, help=f"port to serve on (default {DEFAULT_PORT}; 0: a free one)")
     parser.add_argument("--host", default="127.0.0.1", help="address to serve on (default 127.0.0.1, this machine only; another is warned about)")
+    parser.add_argument("--splats", dest="max_splats", type=nonneg_int, default=DEFAULT_SPLATS, help=f"the most opaque splats drawn at first (default {DEFAULT_SPLATS}: "
+                        "what a browser without a GPU draws in seconds; 0: all; the page's 'splats' switches to all)")  # fmt: skip
     parser.add_argument("--accept", action="store_true", help="keep a run's result that fails its check (as run --accept)")
     add_scene_arguments(parser, llffhold=False, resize_note="else images/ shrunk on read; clicks stay in the coordinates of images/")
     add_backend_argument(parser, default=None)
@@ -33,22 +35,29 @@ def run(args: argparse.Namespace) -> int:
     """Run ``inpaint360gs view`` with parsed ``args`` (serves until Ctrl-C); returns the exit status."""
     from dataclasses import replace
 
-    from inpaint360gs.io.scene import load_scene
-    from inpaint360gs.pipeline.presets import get_preset
-    from inpaint360gs.viewer.api import view
-    from inpaint360gs.viewer.app import exposure_warning
+    from inpaint360gs.viewer.server import exposure_warning, start_server
 
-    set_threads(args.threads)
-    scene = load_scene(args.scene, resize=args.resize, load_masks=False)
-    cfg = get_preset(args.preset)
-    if args.backend is not None:
-        cfg = replace(cfg, backend=args.backend)
-    warning = exposure_warning(args.host)
-    if warning:
-        print(f"warning: {warning}", flush=True)
-    with warnings.catch_warnings():  # said above, as one line
-        warnings.simplefilter("ignore")
-        app = view(scene, args.out, cfg=cfg, model=args.model, host=args.host, port=args.port, accept=args.accept, block=False)
-    print(f"inpaint360gs view: http://{args.host}:{app.port} (run folder {app.session.layout.root}; Ctrl-C to stop)", flush=True)
+    server = start_server(args.host, args.port)  # before torch is imported: the browser loads the page meanwhile
+    try:
+        from inpaint360gs.io.scene import load_scene
+        from inpaint360gs.pipeline.presets import get_preset
+        from inpaint360gs.viewer.api import view
+
+        warning = exposure_warning(args.host)
+        if warning:
+            print(f"warning: {warning}", flush=True)
+        print(f"inpaint360gs view: http://{args.host}:{server.get_port()} (Ctrl-C to stop)", flush=True)
+        set_threads(args.threads)
+        scene = load_scene(args.scene, resize=args.resize, load_masks=False)
+        cfg = get_preset(args.preset)
+        if args.backend is not None:
+            cfg = replace(cfg, backend=args.backend)
+        with warnings.catch_warnings():  # said above, as one line
+            warnings.simplefilter("ignore")
+            app = view(scene, args.out, cfg=cfg, model=args.model, accept=args.accept, block=False, max_splats=args.max_splats, server=server)
+    except BaseException:
+        server.stop()
+        raise
+    print(f"inpaint360gs view: run folder {app.session.layout.root}; the scene is loaded", flush=True)
     app.serve_forever()
     return 0

@@ -4,5 +4,6 @@ the training cameras with their photos, click to select the object to remove (th
 inpainted.
 
 :mod:`.session` holds what the page shows and does, without a web library (tests drive it
-directly); :mod:`.app` puts it in the page with viser, the only module that imports viser (an
-optional extra, ``pip install -e .[viewer]``)."""
+directly); :mod:`.app` puts it in the page with viser; :mod:`.server` starts viser's server
+before anything heavy loads. The two import viser (an optional extra, ``pip install -e .[viewer]``)
+inside functions."""

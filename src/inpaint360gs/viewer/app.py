@@ -1,9 +1,14 @@
-"""The viewer's page (README "Viewer"), built on viser: the only module that imports it (an optional
-extra, ``pip install -e .[viewer]``). What it shows and does is :class:`.session.ViewerSession`'s;
+"""The viewer's page (README "Viewer"), built on viser (an optional extra, ``pip install -e
+.[viewer]``; :mod:`.server` starts its server). What it shows and does is :class:`.session.ViewerSession`'s;
 this module puts it in the page and turns the page's events into the session's calls.
 
-* The splats of the chosen stage (before / removed / inpainted) with viser's Gaussian splats; the
-  selected Gaussians tinted red.
+* The splats of the chosen stage (before / removed / inpainted) with viser's Gaussian splats, each
+  stage's sent once and shown or hidden. Only the ``max_splats`` most opaque are drawn unless the
+  panel's "splats" says all (a browser without a GPU draws a few thousand splats in seconds, the
+  tens of thousands of a trained scene in tens of seconds). The selected ones among them are drawn
+  over them tinted red (a node of their own, so a click sends only the selection). Shift-clicking on
+  the splats selects the object the ray hits first (:meth:`.session.ViewerSession.click_ray`: the
+  photo click at the pixel it projects to).
 * Each training camera as a frustum with its photo. Clicking a frustum chooses that camera (the
   page's camera moves to it; the panel shows the photo with the selection beside the render at that
   camera); clicking on the chosen camera's photo selects the object under that pixel, or drops it.
@@ -22,19 +27,12 @@ import numpy as np
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.pipeline.run import STAGES
 from inpaint360gs.remove.select import Click
+from inpaint360gs.viewer.server import exposure_warning
 from inpaint360gs.viewer.session import MODES, ViewerSession, camera_pose, frustum_depth, frustum_shape, pixel_from_ray, scene_up, splat_arrays
 
-LOCAL_HOSTS = ("127.0.0.1", "localhost", "::1")
 SELECTED_TINT = np.array([1.0, 0.1, 0.1], np.float32)  # colour the selected Gaussians are drawn in (half-blended)
 THUMB_WIDTH = 320  # the photos on the frustums are sent at most this wide
-
-
-def exposure_warning(host: str) -> str | None:
-    """The warning printed when the viewer serves beyond this machine, or None for a local host."""
-    if host in LOCAL_HOSTS:
-        return None
-    return (f"serving on {host}: anyone who can reach this machine can see the scene, run stages that write into the run folder "
-            "and overwrite scene.json's clicks; the page has no login")  # fmt: skip
+SELECTION_GROWTH = 1.3  # the selection's tinted splats are drawn this much larger than the Gaussians
 
 
 def _thumb(img: np.ndarray) -> np.ndarray:
@@ -49,24 +47,53 @@ def _thumb(img: np.ndarray) -> np.ndarray:
 class ViewerApp:
     """The page of ``session``, served on ``host``:``port`` (0: a free port) until :meth:`stop`."""
 
-    def __init__(self, session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080):
+    def __init__(self, session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, server=None, max_splats: int = 0,
+                 background: bool = True):  # fmt: skip
+        """``server``: a viser server already serving (:func:`inpaint360gs.viewer.api.view` starts it
+        first, so that the browser loads the page while the scene loads), else one on ``host``:``port``.
+        ``max_splats``: the most opaque splats drawn (0: all; the panel can switch to all; the
+        viewer's command draws :data:`inpaint360gs.viewer.server.DEFAULT_SPLATS`). The splats
+        are sent before this returns; the cameras with their photos and the panel's render follow in
+        a thread (``background``; else before returning): :meth:`wait_loaded` waits for them."""
         import viser
 
         self.session = session
         self.scene = session.scene
-        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.server = viser.ViserServer(host=host, port=port, verbose=False) if server is None else server
         self.lock = threading.RLock()  # page events come from viser's thread pool
         self.views = self.scene.train_views
         self.current = self.views[0]
         self.mode = next(iter(session.available()), MODES[0])
         self.scale = 0.03 * max(self.scene.extent, 1e-6)  # frustum size: a fraction of the camera orbit
         self.frustums = {}
+        self.max_splats = self.few_splats = max_splats
+        self.splats = {}  # mode -> (the PLY's mtime, max_splats it was sent with, indices sent or None for all, the node)
+        self.selection_node = None
+        self._poller = None
         self.server.scene.set_up_direction(tuple(scene_up(self.scene)))
         self._build_gui()
-        self._add_cameras()
+        # viser's splat nodes report no clicks: a shift-click anywhere in the scene gives the ray (a plain
+        # click stays the frustums' and the camera's)
+        self.server.scene.on_click(modifier="shift")(lambda e: self.on_splat_click(e.ray_origin, e.ray_direction))
         self.show_splats()
-        self.show_view(self.current, move=False)
-        self._poller = None
+        self._loader = threading.Thread(target=self._load_rest, name="inpaint360gs-viewer-load", daemon=True)
+        if background:
+            self._loader.start()
+        else:
+            self._load_rest()
+
+    def _load_rest(self) -> None:
+        with self.lock:
+            self.show_view(self.current, move=False)
+        self._add_cameras()
+        with self.lock:
+            self.show_view(self.current, move=False)  # the chosen camera's frustum coloured
+
+    def wait_loaded(self, timeout: float | None = None) -> bool:
+        """Wait until the page's content is all sent (tests); True when it is."""
+        if self._loader.is_alive():
+            self._loader.join(timeout)
+        return not self._loader.is_alive()
 
     # --- the page ------------------------------------------------------------------------------------
     def _build_gui(self) -> None:
@@ -77,6 +104,9 @@ class ViewerApp:
         self.g_view.on_update(lambda _: self.show_view(self.scene.view(self.g_view.value)))
         self.g_mode = gui.add_dropdown("show", list(MODES), initial_value=self.mode)
         self.g_mode.on_update(lambda _: self.set_mode(self.g_mode.value))
+        few = f"{self.max_splats} most opaque"
+        self.g_splats = gui.add_dropdown("splats", [few, "all"] if self.max_splats > 0 else ["all"], initial_value=few if self.max_splats > 0 else "all")
+        self.g_splats.on_update(lambda _: self.set_max_splats(0 if self.g_splats.value == "all" else self.few_splats))
         self.g_image = gui.add_image(np.zeros((8, 16, 3), np.uint8), label="photo | render")
         self.g_check = gui.add_markdown("")
         self.g_clear = gui.add_button("Clear selection")
@@ -91,8 +121,12 @@ class ViewerApp:
         with gui.add_folder("export"):
             self.g_ply = gui.add_button("Download the shown PLY")
             self.g_ply.on_click(lambda e: self._download(e.client, self.session.ply(self.mode)))
-            self.g_gif = gui.add_button("Download the turntable GIF")
-            self.g_gif.on_click(lambda e: self._download(e.client, self.session.layout.inpainted / "trajectory.gif"))
+            self.g_gif = gui.add_button("Download the turntable GIF", disabled=not self._gif().is_file())
+            self.g_gif.on_click(lambda e: self._download(e.client, self._gif()))
+
+    def _gif(self) -> Path:
+        """The turntable GIF the inpainting stage writes (``inpaint_stage``: its trajectory renders)."""
+        return self.session.layout.inpainted / "trajectory.gif"
 
     def _status(self) -> str:
         s = self.session
@@ -121,24 +155,61 @@ class ViewerApp:
             fov, aspect = frustum_shape(v.camera)
             wxyz, pos = camera_pose(v.camera)
             photo = _thumb(self.scene.load_image_raw(v))
-            fr = self.server.scene.add_camera_frustum(f"/cameras/{v.stem}", fov=fov, aspect=aspect, scale=self.scale, image=photo, wxyz=wxyz, position=pos,
+            with self.lock:
+                fr = self.server.scene.add_camera_frustum(f"/cameras/{v.stem}", fov=fov, aspect=aspect, scale=self.scale, image=photo, wxyz=wxyz, position=pos,
                                                       color=(120, 120, 120))  # fmt: skip
-            fr.on_click(lambda e, v=v: self.on_frustum_click(v.name, e.ray_origin, e.ray_direction))
-            self.frustums[v.name] = fr
+                fr.on_click(lambda e, v=v: self.on_frustum_click(v.name, e.ray_origin, e.ray_direction))
+                self.frustums[v.name] = fr
 
     # --- what events do ------------------------------------------------------------------------------
     def show_splats(self) -> None:
-        """Send the splats of the shown mode (the selection tinted on the 'before' model)."""
+        """Show the splats of the shown mode, sending them when the page does not have that file's
+        (at ``max_splats``) yet, the other modes' hidden; then the selection (:meth:`show_selection`)."""
         with self.lock:
             g = self.session.gaussians(self.mode)
-            if g is None:
-                self.server.scene.add_point_cloud("/splats", np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint8), point_size=0.01)
-                return
-            arr = splat_arrays(g)
+            if g is not None:
+                stamp = self.session.ply(self.mode).stat().st_mtime
+                have = self.splats.get(self.mode)
+                if have is None or have[:2] != (stamp, self.max_splats):
+                    arr = splat_arrays(g)
+                    keep = None
+                    if 0 < self.max_splats < len(g):
+                        keep = np.sort(np.argsort(-arr["opacities"][:, 0], kind="stable")[: self.max_splats])
+                        arr = {k: a[keep] for k, a in arr.items()}
+                    node = self.server.scene.add_gaussian_splats(f"/splats/{self.mode}", **arr)
+                    self.splats[self.mode] = (stamp, self.max_splats, keep, node)
+            for mode, (*_, node) in self.splats.items():
+                node.visible = mode == self.mode and g is not None
+            self.show_selection()
+
+    def set_max_splats(self, n: int) -> None:
+        """Draw the ``n`` most opaque splats (0: all)."""
+        with self.lock:
+            self.max_splats = n
+            self.show_splats()
+
+    def show_selection(self) -> None:
+        """Draw the selected Gaussians over the 'before' splats, tinted (:data:`SELECTED_TINT`
+        half-blended), as a node of their own; nothing in the other modes."""
+        with self.lock:
+            if self.selection_node is not None:
+                self.selection_node.remove()
+                self.selection_node = None
             sel = self.session.selected() if self.mode == "before" else None
-            if sel is not None and len(sel) == len(arr["rgbs"]):
-                arr["rgbs"][sel] = 0.5 * arr["rgbs"][sel] + 0.5 * SELECTED_TINT
-            self.server.scene.add_gaussian_splats("/splats", **arr)
+            g = self.session.gaussians("before") if sel is not None else None
+            if g is None or len(sel) != len(g) or "before" not in self.splats:
+                return
+            keep = self.splats["before"][2]
+            idx = np.flatnonzero(sel) if keep is None else keep[sel[keep]]  # the selected ones among those drawn
+            if len(idx) == 0:
+                return
+            arr = {k: a[idx] for k, a in splat_arrays(g).items()}
+            arr["rgbs"] = 0.5 * arr["rgbs"] + 0.5 * SELECTED_TINT
+            # over the untinted copies at the same centres: a little larger and nearly opaque, so that
+            # the tinted ones lie in front from every side
+            arr["covariances"] = arr["covariances"] * SELECTION_GROWTH**2
+            arr["opacities"] = np.maximum(arr["opacities"], 0.9)
+            self.selection_node = self.server.scene.add_gaussian_splats("/selection", **arr)
 
     def set_mode(self, mode: str) -> None:
         with self.lock:
@@ -178,18 +249,27 @@ class ViewerApp:
             return None
         return self.click(Click(view.name, *px))
 
+    def on_splat_click(self, origin, direction) -> str:
+        """A click on the splats: the session's selection of the object the ray hits first (the
+        photo click at the pixel it projects to), drawn. Returns the session's line."""
+        with self.lock:
+            c, line = self.session.click_ray(origin, direction)
+            self.show_selection()
+            self.show_view(self.current if c is None else self.scene.view(c.view), move=False)
+            return line
+
     def click(self, click: Click) -> str:
         """Select (or drop) the object under ``click`` and draw the selection."""
         with self.lock:
             line = self.session.click(click)
-            self.show_splats()
+            self.show_selection()
             self.show_view(self.scene.view(click.view), move=False)
             return line
 
     def _clear(self) -> None:
         with self.lock:
             self.session.clear()
-            self.show_splats()
+            self.show_selection()
             self.show_view(self.current, move=False)
 
     def _save(self) -> None:
@@ -247,6 +327,7 @@ class ViewerApp:
             if self.session.available():
                 self.mode = "inpainted" if "inpainted" in self.session.available() else self.session.available()[-1]
                 self.g_mode.value = self.mode
+            self.g_gif.disabled = not self._gif().is_file()
             self.show_splats()
             self.show_view(self.current, move=False)
 
@@ -275,12 +356,14 @@ class ViewerApp:
             self.stop()
 
 
-def serve(session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, block: bool = True) -> ViewerApp:
-    """Serve ``session``'s page; with ``block`` until interrupted (Ctrl-C). Warns when ``host`` is not local."""
+def serve(session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, block: bool = True, server=None,
+          max_splats: int = 0) -> ViewerApp:  # fmt: skip
+    """Serve ``session``'s page (on ``server`` when given, see :class:`ViewerApp`); with ``block``
+    until interrupted (Ctrl-C). Warns when ``host`` is not local."""
     warning = exposure_warning(host)
     if warning:
         warnings.warn(warning, stacklevel=3)
-    app = ViewerApp(session, host=host, port=port)
+    app = ViewerApp(session, host=host, port=port, server=server, max_splats=max_splats)
     if block:
         app.serve_forever()
     return app

@@ -119,6 +119,65 @@ def ray_through_pixel(view: View, x: int, y: int, origin, depth: float) -> np.nd
     return world - np.asarray(origin, float)
 
 
+def ray_hit(g: Gaussians, origin, direction) -> np.ndarray | None:
+    """The world point where the ray ``origin + s direction`` (s > 0) meets the splats of ``g``, or
+    None when it passes them by. Each Gaussian's alpha is its opacity times its density at the ray's
+    closest approach (Mahalanobis distance under Eq. 1's Sigma); composited front to back as Eq. 1
+    composites a pixel, the hit is the closest approach of the Gaussian with the largest weight
+    ``alpha_i T_i``, so an opaque front surface wins over what lies behind it. A ray whose
+    accumulated opacity stays under 0.5 hits nothing (as a click on a pixel less than half covered)."""
+    o = np.asarray(origin, np.float64)
+    d = np.asarray(direction, np.float64)
+    d = d / max(np.linalg.norm(d), 1e-12)
+    with torch.no_grad():
+        R = quat_to_rotmat(g.quats.detach().double()).numpy()
+        inv_s2 = 1.0 / np.maximum(g.scales.detach().double().numpy(), 1e-12) ** 2
+        mu = g.means.detach().double().numpy()
+        opacity = g.opacities.detach().double().numpy()
+    # in each Gaussian's frame: x = R^T (mu - o), e = R^T d; Sigma^-1 = R diag(1/s^2) R^T
+    x = np.einsum("nji,nj->ni", R, mu - o)
+    e = np.einsum("nji,j->ni", R, d)
+    dd = (e * e * inv_s2).sum(1)
+    dx = (e * x * inv_s2).sum(1)
+    xx = (x * x * inv_s2).sum(1)
+    s = dx / np.maximum(dd, 1e-30)
+    alpha = np.where(s > 0, np.minimum(0.99, opacity * np.exp(-0.5 * np.maximum(xx - dx * s, 0.0))), 0.0)
+    hit = np.flatnonzero(alpha > 1.0 / 255.0)  # the rasterizer's cut-off for a Gaussian's share of a pixel
+    if len(hit) == 0:
+        return None
+    hit = hit[np.argsort(s[hit], kind="stable")]
+    a = alpha[hit]
+    T = np.concatenate([[1.0], np.cumprod(1.0 - a)[:-1]])
+    if 1.0 - T[-1] * (1.0 - a[-1]) < 0.5:
+        return None
+    best = hit[int(np.argmax(a * T))]
+    return o + s[best] * d
+
+
+def click_at_point(scene: Scene, point, direction) -> Click | None:
+    """The :class:`Click` (``images/`` coordinates) at the world ``point`` in the training view that
+    looks at it most nearly along ``direction`` (the page's viewing ray), among those in whose frame
+    it lies; None when none holds it."""
+    p = np.asarray(point, np.float64)
+    d = np.asarray(direction, np.float64)
+    d = d / max(np.linalg.norm(d), 1e-12)
+    best, best_cos = None, -2.0
+    for v in scene.train_views:
+        cam = v.camera
+        xc = cam.R.double().numpy() @ p + cam.t.double().numpy()
+        if xc[2] <= 1e-9:
+            continue
+        u, w = cam.fx * xc[0] / xc[2] + cam.cx, cam.fy * xc[1] / xc[2] + cam.cy
+        if not (0.0 <= u < cam.width and 0.0 <= w < cam.height):
+            continue
+        look = p - cam.center.double().numpy()
+        cos = float(look @ d / max(np.linalg.norm(look), 1e-12))
+        if cos > best_cos:
+            fw, fh = v.full_size or (cam.width, cam.height)
+            best, best_cos = Click(v.name, min(int(u * fw / cam.width), fw - 1), min(int(w * fh / cam.height), fh - 1)), cos
+    return best
+
+
 def scene_up(scene: Scene) -> np.ndarray:
     """The scene's up direction: the training cameras' mean up (-y of the OpenCV camera), unit length."""
     up = -np.mean([v.camera.R.double().numpy()[1] for v in scene.train_views], axis=0)
@@ -282,6 +341,19 @@ class ViewerSession:
         what = f"dropped object {picked.object_id}" if same and picked.object_id is not None else "dropped" if same else f"selected ({picked.how})"
         self.message = f"{what}; {self.verdict()}"
         return self.message
+
+    def click_ray(self, origin, direction) -> tuple[Click | None, str]:
+        """A click on the splats, given as the page's ray: the pixel of the front surface the ray hits
+        (:func:`ray_hit` on the object field's Gaussians, else the trained model's) in the training
+        view looking along the ray (:func:`click_at_point`), then :meth:`click` with it, the photo
+        click's path. Returns (that click or None, the page's line)."""
+        g = self.field.gaussians if self.field is not None else self.gaussians("before")
+        point = None if g is None else ray_hit(g, origin, direction)
+        c = None if point is None else click_at_point(self.scene, point, direction)
+        if c is None:
+            self.message = "not selected: the click hits no splat seen by a training camera"
+            return None, self.message
+        return c, self.click(c)
 
     def clear(self) -> None:
         """Select nothing."""
