@@ -24,9 +24,8 @@ import sys
 import time
 from pathlib import Path
 
+from inpaint360gs.core.errors import EXIT_CHECK
 from inpaint360gs.metrics.removal import LIMIT_TEXT, LIMITS
-
-EXIT_CHECK_FAILED = 4  # inpaint360gs.core.errors.CheckFailedError's exit code
 
 
 def run_one(scene: Path, out: Path, seed: int, threads: int) -> dict:
@@ -95,7 +94,7 @@ def main(argv=None) -> int:
     for name in a.scenes:
         rs = [r for r in rows if r["scene"] == name]
         worst = {k: max((r[k] for r in rs if r.get(k) is not None), default=None) for k in ("residual", "collateral")}
-        print(f"| {name} | {fmt(worst['residual'])} | {fmt(worst['collateral'])} | {sum(r['exit'] == EXIT_CHECK_FAILED for r in rs)} of {len(rs)} |")
+        print(f"| {name} | {fmt(worst['residual'])} | {fmt(worst['collateral'])} | {sum(r['exit'] == EXIT_CHECK for r in rs)} of {len(rs)} |")
     bad = [r for r in rows if r.get("above") and any(k in ("residual", "collateral") for k in r["above"])]
     silent = [r for r in bad if r["exit"] == 0]
     print()

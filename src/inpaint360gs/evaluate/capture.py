@@ -21,8 +21,6 @@ from inpaint360gs.evaluate.limits import CheckLimits
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.metrics.capture import psnr_outside, standing_mass, standing_share, texture_ratios
-from inpaint360gs.remove.config import RemovalConfig
-from inpaint360gs.remove.geometry import inlier_points
 from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import footprint
 
@@ -119,57 +117,13 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
         scores["standing_note"] = str(e)
         return scores, renders
     scores["object_height"] = fp.height
-    hulls = other_objects(scene, run, rm)
-    body = rm & (fp.heights(means) > 0.1 * fp.height)  # the removed object's standing part (not the support the column took)
-    own = [inlier_points(means[body], RemovalConfig().outlier_k, RemovalConfig().outlier_std)] if body.sum() >= 5 else []
-
-    def neighbours(points: np.ndarray) -> np.ndarray:  # in another object's hull and not in the removed object's
-        return in_hulls(hulls, points) & ~in_hulls(own, points)
-
-    before = standing_mass(means, opac, fp, ignore=neighbours(means))  # the object: what stood in the column before the removal
+    before = standing_mass(means, opac, fp)  # the object: what stood in the column before the removal
     for name in ("removed", "inpainted"):
         if name in models:
             m = models[name]
-            pts = m.means.detach().double().numpy()
-            share, count = standing_share(pts, m.opacities.detach().double().numpy(), fp, reference=before, ignore=neighbours(pts))
+            share, count = standing_share(m.means.detach().double().numpy(), m.opacities.detach().double().numpy(), fp, reference=before)
             scores["standing"][name] = {"share": share, "count": count}
     return scores, renders
-
-
-def other_objects(scene: Scene, run: CaptureRun, removed: np.ndarray) -> list[np.ndarray]:
-    """The centres of each object the distilled field knows and the removal left: its Gaussians with
-    probability > 0.5 that were not removed, their largest connected part (the removal's linking
-    rule) and its inliers, for objects with at least 5 of them. The standing score does not count what lies in their
-    convex hulls (:func:`inpaint360gs.metrics.capture.standing_share`)."""
-    from inpaint360gs.remove.geometry import object_body
-    from inpaint360gs.remove.stage import load_field
-
-    field_ = load_field(run.distill, scene)
-    gone = {int(o) for o in read_json_object(run.removed / "removal.json").get("objects", [])}
-    probs = field_.gaussian_probs().numpy()
-    means = field_.gaussians.means.detach().double().numpy()
-    cfg = RemovalConfig()
-    out = []
-    for c, oid in enumerate(field_.object_ids):
-        own = (probs[:, c] > 0.5) & ~removed
-        if oid == 0 or oid in gone or own.sum() < 5:
-            continue
-        # its largest connected part only: a piece of the removed object that the field gave to
-        # this one lies apart from it, and must still count as standing
-        body = means[own][object_body(means[own], cfg.link, 1.0, 0.0)]
-        if len(body) >= 5:
-            out.append(inlier_points(body, cfg.outlier_k, cfg.outlier_std))
-    return out
-
-
-def in_hulls(hulls: list[np.ndarray], points: np.ndarray) -> np.ndarray:
-    """(N,) bool: ``points`` inside any of the convex ``hulls`` (point sets)."""
-    from inpaint360gs.remove.geometry import inside_hull
-
-    out = np.zeros(len(points), dtype=bool)
-    for h in hulls:
-        out |= inside_hull(h, points)
-    return out
 
 
 def figure(renders: dict[str, dict[str, np.ndarray]], names: list[str]) -> np.ndarray:

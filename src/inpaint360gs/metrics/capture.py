@@ -72,19 +72,16 @@ def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> Te
 OPAQUE_ABOVE_TOP = 0.5  # over the object's top only Gaussians at least this opaque count as standing (see standing_share)
 
 
-def _column(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, ignore: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+def _column(means: np.ndarray, opacities: np.ndarray, footprint: Footprint) -> tuple[np.ndarray, np.ndarray]:
     """(in the column, heights): the Gaussians from one object height below the plane to twice
-    above inside the outline, not ``ignore``d, faint ones over the object's top left out."""
+    above inside the outline, faint ones over the object's top left out."""
     h = footprint.heights(means)
     col = footprint.inside(means) & (h > -footprint.height) & (h < 2.0 * footprint.height)
-    col &= (h <= footprint.height) | (np.asarray(opacities).reshape(-1) >= OPAQUE_ABOVE_TOP)
-    if ignore is not None:
-        col &= ~np.asarray(ignore, dtype=bool)
-    return col, h
+    return col & ((h <= footprint.height) | (opacities >= OPAQUE_ABOVE_TOP)), h
 
 
 def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1,
-                   reference: float | None = None, ignore: np.ndarray | None = None) -> tuple[float, int]:  # fmt: skip
+                   reference: float | None = None) -> tuple[float, int]:  # fmt: skip
     """(opacity-weighted share, count) of the Gaussians in the footprint column (any height from
     one object height below the plane to twice above) that stand higher above the plane than
     ``height_frac`` x the object's height. The share is of everything in the column (0 when it
@@ -92,16 +89,13 @@ def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprin
     the object), of that: the part of the object still standing, which an emptied column (the
     removal takes the support under the object too) cannot inflate.
 
-    What is not counted: ``ignore`` (N,) bool, Gaussians not counted wherever they lie (another
-    object standing in the column: the outline is convex, so a neighbour that reaches into it, a box
-    behind a teapot's spout, stands there before and after the removal); and over the object's top
-    (its height is its opaque centres' 99th percentile), Gaussians fainter than
-    :data:`OPAQUE_ABOVE_TOP`. The band over the top catches a part of the object the removal missed
+    Over the object's top (its height is its opaque centres' 99th percentile) Gaussians fainter than
+    :data:`OPAQUE_ABOVE_TOP` are not counted. The band over the top catches a part of the object the removal missed
     (the footprint then measures only the removed part), an opaque surface; the faint Gaussians over
     a removed object are the room's floaters, which the removal leaves by design (outside the
     object's silhouette, docs/architecture.md "The footprint column")."""
     opacities = np.asarray(opacities).reshape(-1)
-    col, h = _column(means, opacities, footprint, ignore)
+    col, h = _column(means, opacities, footprint)
     w = opacities[col].astype(np.float64)
     up = h[col] > height_frac * footprint.height
     total = reference if reference is not None else w.sum()
@@ -110,9 +104,8 @@ def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprin
     return float(w[up].sum() / total), int(up.sum())
 
 
-def standing_mass(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1,
-                  ignore: np.ndarray | None = None) -> float:
+def standing_mass(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1) -> float:
     """The opacity summed over what stands in the footprint column (as :func:`standing_share` counts it)."""
     opacities = np.asarray(opacities).reshape(-1)
-    col, h = _column(means, opacities, footprint, ignore)
+    col, h = _column(means, opacities, footprint)
     return float(opacities[col & (h > height_frac * footprint.height)].astype(np.float64).sum())
