@@ -13,10 +13,12 @@ removal and inpainting:
 * poses and points from structure from motion rather than the truth (``poses="colmap"``);
 * low camera elevations, and sparse captures of about 25 photos (the ``-sparse`` variants).
 
-Three layouts, each drawn from a layout seed: ``dozer`` (a toy bulldozer with dark tracks and
+Four layouts, each drawn from a layout seed: ``dozer`` (a toy bulldozer with dark tracks and
 chassis on two placemats whose seam crosses under it, on a wooden table), ``teapot`` (a teapot on
 wood grain against a bread box that stays: a backdrop), ``duck`` (a small rubber duck on the edge of
-a woven rug). Scene names carry the random stream and the layout seed (``dozer-dev1``,
+a woven rug), ``plush`` (a plush bear that fills much of the frame, on a plain sheet in a plain
+room: the capture where structure from motion finds few points, mostly on the toy, and the
+backdrop gives segmentation and densification little to work with). Scene names carry the random stream and the layout seed (``dozer-dev1``,
 ``dozer-test3``, ``dozer-test3-sparse``); the dev and test streams are disjoint, so a test scene's
 positions, angles, colours and seams are never those of a dev scene. The test stream's first seeds
 (``*-test1``, ``*-test2``, ``*-test1-sparse``) were run and looked at while settings changed: they
@@ -35,9 +37,12 @@ from dataset_tools.synth.spec import Light, ObjectSpec, Orbit, Photo, Prim, Scen
 from dataset_tools.synth.textures import Material
 
 FAMILY = "realistic"
-LAYOUTS = ("dozer", "teapot", "duck")
+LAYOUTS = ("dozer", "teapot", "duck", "plush")
 SEEDS = {"dev": (1, 2), "test": (1, 2, 3, 4)}  # layout seeds per random stream (separate streams)
 SPARSE = {"dev": (1,), "test": (1, 3, 4)}  # which of them also get a ~25-photo variant
+# the plain-backdrop layout is sparse by nature (few SfM points): one dev and one test scene, no ~25-photo variant
+LAYOUT_SEEDS = {"plush": {"dev": (1,), "test": (3,)}}
+LAYOUT_SPARSE = {"plush": {"dev": (), "test": ()}}
 # layout seeds of the test stream that were run and looked at while settings changed: development scenes now
 LOOKED_AT = {"test": (1, 2)}
 SPARSE_VIEWS = 25  # object-inclusive photos of a sparse variant (a real hand-held capture's count)
@@ -178,6 +183,33 @@ def rubber_duck(oid: int, **kw) -> ObjectSpec:
     return ObjectSpec(oid, "rubber duck", "ellipsoids", prims, **kw)
 
 
+def plush_bear(oid: int, fur, **kw) -> ObjectSpec:
+    """A sitting plush bear ~0.33 m tall: fur with faint tufts, a lighter muzzle and paw pads, button
+    eyes and nose, and a checked scarf (the few sharp features structure from motion finds on it)."""
+    f = Material("noise", fur, scale=0.012, detail=0.1, seed=241, dots=0.25, dot_size=0.01)
+    light = tuple(tuple(min(1.0, 0.35 + 0.7 * c) for c in col) for col in fur[:2])
+    pale = Material("noise", light, scale=0.008, detail=0.08, seed=242)
+    black = Material("noise", ((0.03, 0.03, 0.04), (0.10, 0.09, 0.09)), scale=0.003, detail=0.05, seed=243)
+    scarf = Material("checker", ((0.80, 0.12, 0.12), (0.92, 0.90, 0.84), (0.15, 0.20, 0.45)), scale=0.012, detail=0.05, seed=244)
+    prims = [
+        Prim("ellipsoid", (0.085, 0.08, 0.10), f, (0.0, 0.0, 0.098)),  # body, sitting
+        Prim("ellipsoid", (0.072, 0.07, 0.066), f, (0.01, 0.0, 0.245)),  # head
+        Prim("ellipsoid", (0.032, 0.036, 0.026), pale, (0.066, 0.0, 0.232)),  # muzzle
+        Prim("ellipsoid", (0.012, 0.016, 0.009), black, (0.096, 0.0, 0.244)),  # nose
+        Prim("torus", (0.062, 0.014), scarf, (0.005, 0.0, 0.185)),  # scarf round the neck
+    ]
+    for sy in (-1.0, 1.0):
+        prims += [
+            Prim("ellipsoid", (0.026, 0.012, 0.026), f, (-0.005, sy * 0.055, 0.305), (sy * 20.0, 0.0, 0.0)),  # ear
+            Prim("ellipsoid", (0.014, 0.006, 0.014), pale, (0.002, sy * 0.055, 0.303), (sy * 20.0, 0.0, 0.0)),
+            Prim("ellipsoid", (0.008, 0.008, 0.008), black, (0.062, sy * 0.03, 0.268)),  # button eye
+            Prim("ellipsoid", (0.065, 0.038, 0.036), f, (0.07, sy * 0.052, 0.034)),  # leg forward, resting on the sheet
+            Prim("ellipsoid", (0.006, 0.024, 0.028), pale, (0.133, sy * 0.052, 0.036)),  # foot pad
+            segment("capsule", 0.024, (0.01, sy * 0.085, 0.16), (0.06, sy * 0.07, 0.09), f),  # arm
+        ]
+    return ObjectSpec(oid, "plush bear", "ellipsoids+torus+capsules", tuple(prims), **kw)
+
+
 # ----------------------------------------------------------------------------------------------
 # layouts
 
@@ -254,7 +286,29 @@ def duck(suite: str, k: int, sparse: bool = False) -> SceneSpec:
     return _spec("duck", suite, k, sparse, "small rubber duck on the edge of a woven rug over a tiled floor", bg, (obj,), ao_radius=0.06)
 
 
-def _spec(layout: str, suite: str, k: int, sparse: bool, description: str, background, objects, ao_radius: float) -> SceneSpec:
+# A cotton sheet: off-white with broad, faint folds (almost nothing for SIFT), spread on a wooden
+# floor in a furnished room (the floor beyond the sheet and the walls are what lets the photos taken
+# after the toy's removal register)
+SHEETS = (((0.88, 0.87, 0.84), (0.80, 0.79, 0.76)), ((0.84, 0.86, 0.88), (0.76, 0.78, 0.81)), ((0.90, 0.86, 0.80), (0.82, 0.78, 0.72)))
+SHEET_HALF = 0.5  # metres: the toy fills the frame, so the sheet fills most of each photo
+FURS = (((0.55, 0.38, 0.22), (0.48, 0.32, 0.18)), ((0.78, 0.66, 0.48), (0.70, 0.58, 0.40)), ((0.42, 0.42, 0.44), (0.36, 0.36, 0.38)))
+
+
+def plush(suite: str, k: int, sparse: bool = False) -> SceneSpec:
+    rng = _rng("plush", suite, k)
+    seed = 600 + 10 * k + (0 if suite == "dev" else 5)
+    sheet = Material("noise", _pick(rng, SHEETS), scale=0.25, detail=0.02, seed=seed)
+    bg = room(table(rng, seed), _pick(rng, (WALLS_WARM, WALLS_COOL, WALLS_GREEN)))
+    angle = float(rng.uniform(0.0, 90.0))
+    centre = _rot(angle, tuple(float(x) for x in rng.uniform(-0.1, 0.1, 2)))
+    bg += (Prim("box", (SHEET_HALF, SHEET_HALF, 0.5 * MAT_T), sheet, (centre[0], centre[1], 0.5 * MAT_T), (0.0, 0.0, angle)),)
+    obj = plush_bear(1, _pick(rng, FURS), position=(0.0, 0.0, MAT_T), yaw=float(rng.uniform(0.0, 360.0)), target=True)
+    return _spec("plush", suite, k, sparse, "plush bear filling much of the frame on a plain sheet spread on a wooden floor (few SfM points, mostly on the toy and beyond the sheet)",
+                 bg, (obj,), ao_radius=0.1, fill=1.05)
+
+
+def _spec(layout: str, suite: str, k: int, sparse: bool, description: str, background, objects, ao_radius: float,
+          fill: float = 0.8) -> SceneSpec:
     """The scene of ``layout`` at layout seed ``k`` of the random stream ``suite`` (its name); in the dev
     suite when the stream is dev or the seed was looked at (:data:`LOOKED_AT`), else in the test suite."""
     name = f"{layout}-{suite}{k}" + ("-sparse" if sparse else "")
@@ -262,21 +316,21 @@ def _spec(layout: str, suite: str, k: int, sparse: bool, description: str, backg
     targets = tuple(o.id for o in objects if o.target)  # the photos frame the object to remove
     return SceneSpec(
         name, description + (f"; sparse: {SPARSE_VIEWS} photos" if sparse else ""), tuple(background), tuple(objects),
-        orbit=Orbit(elevation=ORBIT_ELEVATION, frame=targets), light=Light(ao=0.85, ao_radius=ao_radius, ao_samples=8),
+        orbit=Orbit(elevation=ORBIT_ELEVATION, frame=targets, fill=fill), light=Light(ao=0.85, ao_radius=ao_radius, ao_samples=8),
         n_views=n_views, n_test=16, photo=PHOTO, poses="colmap", family=FAMILY, suite="dev" if k in LOOKED_AT.get(suite, ()) else suite,
     )
 
 
-BUILDERS = {"dozer": dozer, "teapot": teapot_scene, "duck": duck}
+BUILDERS = {"dozer": dozer, "teapot": teapot_scene, "duck": duck, "plush": plush}
 
 
 def realistic_scenes() -> list[SceneSpec]:
     """Every scene of the family: each layout at each suite's seeds, and the sparse variants."""
     out = []
     for layout in LAYOUTS:
-        for suite, seeds in SEEDS.items():
+        for suite, seeds in LAYOUT_SEEDS.get(layout, SEEDS).items():
             for k in seeds:
                 out.append(BUILDERS[layout](suite, k))
-                if k in SPARSE[suite]:
+                if k in LAYOUT_SPARSE.get(layout, SPARSE)[suite]:
                     out.append(BUILDERS[layout](suite, k, sparse=True))
     return out

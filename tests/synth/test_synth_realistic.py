@@ -15,7 +15,7 @@ from dataset_tools.synth import SCENES, build_scene, generate_scene, load_scene
 from dataset_tools.synth.catalogue import BENCHMARK_SCENES, LOW_UNSEEN_SHARE, suite_scenes
 from dataset_tools.synth.photo import develop
 from dataset_tools.synth.raycast import World
-from dataset_tools.synth.realistic import LAYOUTS, LOOKED_AT, MAT_T, SPARSE_VIEWS
+from dataset_tools.synth.realistic import LAYOUT_SEEDS, LAYOUT_SPARSE, LAYOUTS, LOOKED_AT, MAT_T, SEEDS, SPARSE, SPARSE_VIEWS
 from dataset_tools.synth.render import render
 from dataset_tools.synth.spec import SceneSpec
 from dataset_tools.synth.textures import albedo
@@ -111,19 +111,38 @@ def test_suites_split_the_catalogue():
     for layout in LAYOUTS:
         for suite in ("dev", "test"):
             names = [n for n in suite_scenes(suite) if n.startswith(layout + "-")]
+            if layout in LAYOUT_SEEDS:  # a layout with its own seeds (the plain-backdrop one: one scene per suite, no sparse variant)
+                assert sum(not n.endswith("-sparse") for n in names) >= 1
+                continue
             assert sum(not n.endswith("-sparse") for n in names) >= 2 and sum(n.endswith("-sparse") for n in names) >= 1
     with pytest.raises(InputError, match="unknown suite"):
         suite_scenes("train")
     # the sealed test suite: at least 12 scenes, none of the test stream's layouts that were looked at
     assert len(test) >= 12 and not {n for n in test if int(n.split("-")[1].removeprefix("test")) in LOOKED_AT["test"]}
-    assert {"dozer-test1", "teapot-test2", "duck-test1-sparse"} <= dev
+    assert {"dozer-test1", "teapot-test2", "duck-test1-sparse", "plush-dev1"} <= dev and "plush-test3" in test
+    assert not any(n.startswith("plush-") and n.endswith("-sparse") for n in SCENES) and LAYOUT_SPARSE["plush"] != SPARSE
+
+
+def test_plush_is_a_large_object_on_a_plain_sheet():
+    """The plain-backdrop layout: the toy fills much of the frame (larger orbit fill than the other
+    layouts) and stands on a sheet whose albedo barely varies (what gives SfM few points there)."""
+    spec, dozer = SCENES["plush-dev1"], SCENES["dozer-dev1"]
+    assert spec.orbit.fill > dozer.orbit.fill and spec.objects[0].target
+    sheet = [p for p in spec.background if p.shape == "box" and p.params[2] < 0.01]
+    assert len(sheet) == 1
+    rng = np.random.default_rng(0)
+    pts = np.c_[rng.uniform(-0.3, 0.3, (4000, 2)), np.full(4000, MAT_T)]
+    sheet_std = albedo(sheet[0].material, pts, np.full(4000, 1e-3), 0).std(axis=0).max()
+    mats = [p for p in dozer.background if p.material.kind == "weave"]
+    mat_std = min(albedo(m.material, pts[:, :] * [0.5, 0.5, 1.0], np.full(4000, 1e-3), 0).std(axis=0).max() for m in mats)
+    assert sheet_std < 0.05 and sheet_std < 0.2 * mat_std, (sheet_std, mat_std)
 
 
 def test_layouts_vary_with_the_seed_and_test_layouts_are_not_dev_layouts():
     for layout in LAYOUTS:
         names = [n for n in REALISTIC if n.startswith(layout + "-") and not n.endswith("-sparse")]
         layouts = [_layout(SCENES[n]) for n in names]
-        assert len(names) >= 4
+        assert len(names) == sum(len(k) for k in LAYOUT_SEEDS.get(layout, SEEDS).values()) >= 2
         for i in range(len(layouts)):
             for j in range(i + 1, len(layouts)):
                 assert layouts[i][0] != layouts[j][0], (names[i], names[j])
