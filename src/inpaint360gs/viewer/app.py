@@ -23,6 +23,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.pipeline.run import STAGES
@@ -70,11 +71,13 @@ class ViewerApp:
         self.splats = {}  # mode -> (the PLY's mtime, max_splats it was sent with, indices sent or None for all, the node)
         self.selection_node = None
         self._poller = None
+        self._stopped = False
         self.server.scene.set_up_direction(tuple(scene_up(self.scene)))
         self._build_gui()
         # viser's splat nodes report no clicks: a shift-click anywhere in the scene gives the ray (a plain
         # click stays the frustums' and the camera's)
         self.server.scene.on_click(modifier="shift")(lambda e: self.on_splat_click(e.ray_origin, e.ray_direction))
+        session.on_checked = self._on_checked
         self.show_splats()
         self._loader = threading.Thread(target=self._load_rest, name="inpaint360gs-viewer-load", daemon=True)
         if background:
@@ -88,6 +91,14 @@ class ViewerApp:
         self._add_cameras()
         with self.lock:
             self.show_view(self.current, move=False)  # the chosen camera's frustum coloured
+        # what every click's selection re-uses, before the first click (a click meanwhile does what is missing)
+        threading.Thread(target=self.session.warm, name="inpaint360gs-viewer-warm", daemon=True).start()
+
+    def _on_checked(self) -> None:
+        """The selection's check is done (a background thread): its line in the panel."""
+        with self.lock:
+            if not self._stopped:
+                self._refresh_text()
 
     def wait_loaded(self, timeout: float | None = None) -> bool:
         """Wait until the page's content is all sent (tests); True when it is."""
@@ -203,7 +214,7 @@ class ViewerApp:
             idx = np.flatnonzero(sel) if keep is None else keep[sel[keep]]  # the selected ones among those drawn
             if len(idx) == 0:
                 return
-            arr = {k: a[idx] for k, a in splat_arrays(g).items()}
+            arr = splat_arrays(g.subset(torch.from_numpy(idx)))
             arr["rgbs"] = 0.5 * arr["rgbs"] + 0.5 * SELECTED_TINT
             # over the untinted copies at the same centres: a little larger and nearly opaque, so that
             # the tinted ones lie in front from every side
@@ -253,15 +264,16 @@ class ViewerApp:
         """A click on the splats: the session's selection of the object the ray hits first (the
         photo click at the pixel it projects to), drawn. Returns the session's line."""
         with self.lock:
-            c, line = self.session.click_ray(origin, direction)
+            c, line = self.session.click_ray(origin, direction, wait=False)
             self.show_selection()
             self.show_view(self.current if c is None else self.scene.view(c.view), move=False)
             return line
 
     def click(self, click: Click) -> str:
-        """Select (or drop) the object under ``click`` and draw the selection."""
+        """Select (or drop) the object under ``click`` and draw the selection; its check follows
+        (:meth:`.session.ViewerSession.click` without waiting: the panel's line when it is done)."""
         with self.lock:
-            line = self.session.click(click)
+            line = self.session.click(click, wait=False)
             self.show_selection()
             self.show_view(self.scene.view(click.view), move=False)
             return line
@@ -342,6 +354,8 @@ class ViewerApp:
         return self.server.get_port()
 
     def stop(self) -> None:
+        with self.lock:
+            self._stopped = True
         self.server.stop()
 
     def serve_forever(self) -> None:
