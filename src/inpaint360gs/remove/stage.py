@@ -21,7 +21,6 @@ from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.metrics import amcr
 from inpaint360gs.remove.check import SelectionCheck, assess_selection
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.objects import Removal, fill_masks, remove_objects
@@ -33,8 +32,7 @@ def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     """The distillation output ``folder`` (:meth:`IdentityField.load`), checked against its
     ``distill.json`` when there is one: the Gaussian count it records, and the scene it was
     distilled from, which must be ``scene`` (content hash and ``--resize``)."""
-    from inpaint360gs.distill.field import MODEL_PLY
-    from inpaint360gs.distill.stage import DISTILL_JSON
+    from inpaint360gs.distill.field import DISTILL_JSON, MODEL_PLY  # not distill.stage: it imports the trainer and the metrics (seconds)
 
     folder = Path(folder)
     field_ = IdentityField.load(folder)
@@ -152,6 +150,8 @@ def remove_stage(
     Returns: what ``removal.json`` holds; its ``selection_check`` says whether the selection is an
     object (:mod:`.check`; the stage records it, ``inpaint360gs run`` acts on it).
     Raises: :class:`InputError` for a non-empty ``out`` or a click that selects nothing."""
+    from inpaint360gs.metrics import amcr  # here: torchmetrics and scipy.stats take seconds to import (the viewer's page waits for plan_removal's imports)
+
     check_stage_call("remove_stage", scene, out, cfg, RemovalConfig, overwrite=overwrite, progress=progress)
     if not isinstance(field_, IdentityField):
         raise InputError(f"expected an IdentityField (load_field), got {type(field_).__name__}", setting="remove_stage.field_")

@@ -6,8 +6,9 @@ another 0/1 feature per selection; README "Viewer").
 call; only the last step, compositing, reads the features. :class:`FeatureRenders` keeps, per view,
 what the numba backend composites (the packed splats, their tile lists, the colour and depth
 channels) and composites new features over it: the same kernel on the same inputs, so the features
-are bit for bit those of ``render(..., with_features=True).features``. Other backends (torch,
-gsplat) render in full each time."""
+are bit for bit those of ``render(..., with_features=True).features``; only over the tiles where a
+Gaussian with a nonzero feature lies (elsewhere they are 0, as the kernel composites them there: a
+selection's masks cost the tiles it covers). Other backends (torch, gsplat) render in full each time."""
 
 from __future__ import annotations
 
@@ -82,7 +83,16 @@ class FeatureRenders:
 
         self.prepare(key, camera)
         (pk, offsets, gids, order, tiles_x), base, width, height = self._views[key]
-        channels = np.ascontiguousarray(np.concatenate([base, to_f32(feats.to(self.gaussians.means.dtype))], axis=1))
+        f = to_f32(feats.to(self.gaussians.means.dtype))
+        # a tile none of whose Gaussians has a nonzero feature composites 0 (+0.0) everywhere, the
+        # kernel's own answer there: only the tiles holding one are composited (all their Gaussians)
+        holds = (f != 0).any(axis=1)[gids]
+        touched = np.zeros(len(offsets) - 1, bool)
+        busy = np.flatnonzero(np.diff(offsets) > 0)
+        if len(busy):
+            touched[busy] = np.add.reduceat(holds, offsets[busy]) > 0
+        order = order[touched[order]]
+        channels = np.ascontiguousarray(np.concatenate([base, f], axis=1))
         set_numba_threads()
         img, _, _, _ = K.forward(pk, channels, offsets, gids, order, numba.get_num_threads(), width, height, tiles_x)
         return torch.from_numpy(img[..., base.shape[1]:].copy()).to(self.gaussians.means.dtype)
