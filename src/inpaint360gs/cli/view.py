@@ -39,14 +39,15 @@ def run(args: argparse.Namespace) -> int:
 
     server = start_server(args.host, args.port)  # before torch is imported: the browser loads the page meanwhile
     try:
-        from inpaint360gs.io.scene import load_scene
-        from inpaint360gs.pipeline.presets import get_preset
-        from inpaint360gs.viewer.api import view
-
         warning = exposure_warning(args.host)
         if warning:
             print(f"warning: {warning}", flush=True)
         print(f"inpaint360gs view: http://{args.host}:{server.get_port()} (Ctrl-C to stop)", flush=True)
+
+        from inpaint360gs.io.scene import load_scene
+        from inpaint360gs.pipeline.presets import get_preset
+        from inpaint360gs.viewer.api import view
+
         set_threads(args.threads)
         scene = load_scene(args.scene, resize=args.resize, load_masks=False)
         cfg = get_preset(args.preset)

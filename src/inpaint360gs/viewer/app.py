@@ -265,8 +265,8 @@ class ViewerApp:
         photo click at the pixel it projects to), drawn. Returns the session's line."""
         with self.lock:
             c, line = self.session.click_ray(origin, direction, wait=False)
-            self.show_selection()
             self.show_view(self.current if c is None else self.scene.view(c.view), move=False)
+            self.show_selection()
             return line
 
     def click(self, click: Click) -> str:
@@ -274,8 +274,8 @@ class ViewerApp:
         (:meth:`.session.ViewerSession.click` without waiting: the panel's line when it is done)."""
         with self.lock:
             line = self.session.click(click, wait=False)
+            self.show_view(self.scene.view(click.view), move=False)  # the photo with its mask first: the cheaper to draw
             self.show_selection()
-            self.show_view(self.scene.view(click.view), move=False)
             return line
 
     def _clear(self) -> None:

@@ -280,6 +280,7 @@ class ViewerSession:
         self.message = ""
         self._gaussians: dict[str, tuple[float, Gaussians]] = {}
         self._renders: dict[tuple, np.ndarray] = {}  # (view, mode, PLY mtime) -> the panel's render
+        self._photos: dict[str, np.ndarray] = {}  # view -> its photo, as read
         self.field = None
         self.renders: FeatureRenders | None = None
         self._support = None
@@ -483,7 +484,9 @@ class ViewerSession:
     def photo(self, view: View) -> np.ndarray:
         """(H, W, 3) float photo of a training view with the selection's fill mask tinted and the
         clicks on it crossed (at the scene's resolution)."""
-        img = self.scene.load_image(view).numpy()
+        if view.name not in self._photos:
+            self._photos[view.name] = self.scene.load_image(view).numpy()
+        img = self._photos[view.name]
         mask = self.mask(view)
         mask = np.zeros(img.shape[:2], bool) if mask is None else mask
         return selection_overlay(img, mask, [c.pixel(view) for c in self.clicks if self.scene.view(c.view).name == view.name])
