@@ -61,3 +61,37 @@ def test_the_removal_with_the_cache_is_the_removal_without_it(make_blobs_scene):
     got = plan_removal(field, scene, clicks=[c], renders=cache, support=support_plane(field, scene))
     assert np.array_equal(ref.removal.removed_mask.numpy(), got.removal.removed_mask.numpy()) and ref.check == got.check
     assert ref.masks.keys() == got.masks.keys() and all(np.array_equal(ref.masks[k], got.masks[k]) for k in ref.masks)
+
+
+def test_features_near_some_pixels_are_the_rendered_ones_there():
+    g = _model(seed=2)
+    cam = Camera(torch.eye(3), torch.zeros(3), 50.0, 50.0, 35.3, 22.3, 70, 45)
+    feats = torch.from_numpy(np.random.default_rng(3).random((len(g.means), 1)) < 0.5).float()
+    ref = g.map(lambda t: t)
+    ref.features = feats
+    want = render(ref, cam, with_features=True, backend="numba" if "numba" in BACKENDS else "torch").features[..., 0]
+    x, y = np.array([3, 40, 69]), np.array([44, 20, 0])
+    got = FeatureRenders(g).features("v", cam, feats, near=(x, y), margin=2)[..., 0]
+    for dx in range(-2, 3):
+        for dy in range(-2, 3):
+            xx, yy = np.clip(x + dx, 0, 69), np.clip(y + dy, 0, 44)
+            assert torch.equal(got[yy, xx], want[yy, xx])
+
+
+def test_the_silhouette_test_with_the_cache_is_the_one_without_it(make_blobs_scene):
+    from object_fields import labelled_field
+
+    from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.remove.objects import silhouette_share
+
+    root, model, labels = make_blobs_scene("silhouette-cache", n_views=8)
+    scene = load_scene(root)
+    field = labelled_field(model, labels, [0, 3, 7])
+    g = field.gaussians
+    rng = np.random.default_rng(4)
+    plain = silhouette_share(g, scene.train_views)
+    cached = silhouette_share(g, scene.train_views, renders=FeatureRenders(g))
+    for _ in range(3):
+        body = rng.random(len(model)) < 0.4
+        idx = np.flatnonzero(rng.random(len(model)) < 0.1)
+        assert np.array_equal(plain(idx, body), cached(idx, body))

@@ -133,10 +133,10 @@ def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto",
     kernel = np.ones((2 * grow_px + 1, 2 * grow_px + 1), np.uint8)
 
     def share(indices: np.ndarray, body: np.ndarray) -> np.ndarray:
-        masks = fill_masks(model, torch.from_numpy(np.asarray(body, dtype=bool)), views, 0.5, backend, renders)
         inside = np.zeros(len(indices))
         seen = np.zeros(len(indices))
         X = means[indices]
+        where = {}
         for v in views:
             cam = v.camera
             xc = X @ cam.R.double().numpy().T + cam.t.double().numpy()
@@ -145,6 +145,12 @@ def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto",
             u = np.floor(cam.fx * xc[:, 0] / np.where(front, z, 1.0) + cam.cx).astype(np.int64)
             w = np.floor(cam.fy * xc[:, 1] / np.where(front, z, 1.0) + cam.cy).astype(np.int64)
             ok = front & (u >= 0) & (u < cam.width) & (w >= 0) & (w < cam.height)
+            where[v.name] = (u, w, ok)
+        # the silhouettes are read only within grow_px of the centres' pixels
+        near = {n: (u[ok], w[ok]) for n, (u, w, ok) in where.items()}
+        masks = fill_masks(model, torch.from_numpy(np.asarray(body, dtype=bool)), views, 0.5, backend, renders, near=near, margin=grow_px)
+        for v in views:
+            u, w, ok = where[v.name]
             sil = cv2.dilate(masks[v.name].astype(np.uint8), kernel).astype(bool)
             seen += ok
             inside[ok] += sil[w[ok], u[ok]]
@@ -155,13 +161,16 @@ def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto",
 
 @torch.no_grad()
 def fill_masks(model: Gaussians, removed_mask: torch.Tensor, views: list[View], share: float = 0.5, backend: str = "auto",
-               renders: FeatureRenders | None = None) -> dict[str, np.ndarray]:  # fmt: skip
+               renders: FeatureRenders | None = None, near: dict | None = None, margin: int = 0) -> dict[str, np.ndarray]:  # fmt: skip
     """Per view, the pixels at least ``share`` of whose colour the removed Gaussians gave in ``model``
     (see the module docstring): the removed objects' rendered footprint. ``renders``: the views'
-    projections of ``model`` kept between calls (the viewer's clicks; the same masks, faster)."""
+    projections of ``model`` kept between calls (the viewer's clicks; the same masks, faster);
+    with it, ``near`` (view name -> (x, y) pixel arrays) says that only the mask within ``margin``
+    pixels of those is wanted (elsewhere it may be left False)."""
     feats = removed_mask.to(model.means.dtype)[:, None]
     if renders is not None and renders.gaussians is model:
-        return {v.name: (renders.features(v.name, v.camera, feats)[..., 0] >= share).numpy() for v in views}
+        near = near or {}
+        return {v.name: (renders.features(v.name, v.camera, feats, near=near.get(v.name), margin=margin)[..., 0] >= share).numpy() for v in views}
     g = model.map(lambda t: t)
     g.features = feats
     out = {}

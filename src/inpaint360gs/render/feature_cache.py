@@ -19,6 +19,7 @@ import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.render.tiles import TILE
 
 NEAR, FAR, EPS2D = 0.01, 1e10, 0.3  # render()'s defaults
 
@@ -66,10 +67,24 @@ class FeatureRenders:
             base = to_f32(torch.cat([rgb, depths[:, None]], dim=-1))
             self._views[key] = (packed, base, cam.width, cam.height)
 
+    @staticmethod
+    def _tiles_near(near, margin: int, width: int, height: int, tiles_x: int, n_tiles: int) -> np.ndarray:
+        """(n_tiles,) bool: the tiles within ``margin`` (< TILE) pixels of the pixels ``near``."""
+        x, y = (np.asarray(a, np.int64) for a in near)
+        out = np.zeros(n_tiles, bool)
+        xs = [np.clip(x - margin, 0, width - 1) // TILE, np.clip(x + margin, 0, width - 1) // TILE]
+        ys = [np.clip(y - margin, 0, height - 1) // TILE, np.clip(y + margin, 0, height - 1) // TILE]
+        for tx in xs:  # a square of side 2 margin + 1 < TILE spans at most two tiles each way
+            for ty in ys:
+                out[ty * tiles_x + tx] = True
+        return out
+
     @torch.no_grad()
-    def features(self, key: str, camera: Camera, feats: torch.Tensor) -> torch.Tensor:
+    def features(self, key: str, camera: Camera, feats: torch.Tensor, *, near=None, margin: int = 0) -> torch.Tensor:
         """(H, W, F) float features ``feats`` (N, F) composited at ``camera`` (Eq. 2), as
-        ``render(g, camera, with_features=True).features`` with ``g.features = feats``."""
+        ``render(g, camera, with_features=True).features`` with ``g.features = feats``. ``near``:
+        (x, y) pixel arrays; when given, only the pixels within ``margin`` (< 16) of them are wanted
+        (the tiles holding none are left 0)."""
         if not self._numba:
             from inpaint360gs.render.api import render
 
@@ -91,6 +106,8 @@ class FeatureRenders:
         busy = np.flatnonzero(np.diff(offsets) > 0)
         if len(busy):
             touched[busy] = np.add.reduceat(holds, offsets[busy]) > 0
+        if near is not None and margin < TILE:
+            touched &= self._tiles_near(near, margin, width, height, tiles_x, len(touched))
         order = order[touched[order]]
         channels = np.ascontiguousarray(np.concatenate([base, f], axis=1))
         set_numba_threads()
