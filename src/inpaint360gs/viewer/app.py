@@ -29,6 +29,7 @@ from inpaint360gs.core.errors import InputError
 from inpaint360gs.pipeline.run import STAGES
 from inpaint360gs.remove.select import Click
 from inpaint360gs.viewer.server import exposure_warning
+from inpaint360gs.viewer.splats import most_opaque
 from inpaint360gs.viewer.session import MODES, ViewerSession, camera_pose, frustum_depth, frustum_shape, pixel_from_ray, scene_up, splat_arrays
 
 SELECTED_TINT = np.array([1.0, 0.1, 0.1], np.float32)  # colour the selected Gaussians are drawn in (half-blended)
@@ -49,13 +50,15 @@ class ViewerApp:
     """The page of ``session``, served on ``host``:``port`` (0: a free port) until :meth:`stop`."""
 
     def __init__(self, session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, server=None, max_splats: int = 0,
-                 background: bool = True):  # fmt: skip
+                 background: bool = True, sent: tuple | None = None):  # fmt: skip
         """``server``: a viser server already serving (:func:`inpaint360gs.viewer.api.view` starts it
         first, so that the browser loads the page while the scene loads), else one on ``host``:``port``.
         ``max_splats``: the most opaque splats drawn (0: all; the panel can switch to all; the
         viewer's command draws :data:`inpaint360gs.viewer.server.DEFAULT_SPLATS`). The splats
         are sent before this returns; the cameras with their photos and the panel's render follow in
-        a thread (``background``; else before returning): :meth:`wait_loaded` waits for them."""
+        a thread (``background``; else before returning): :meth:`wait_loaded` waits for them.
+        ``sent``: the 'before' splats ``server`` holds already (:func:`.splats.send_splats`; kept
+        when they are the shown PLY's at ``max_splats``)."""
         import viser
 
         self.session = session
@@ -70,6 +73,8 @@ class ViewerApp:
         self.max_splats = self.few_splats = max_splats
         self.splats = {}  # mode -> (the PLY's mtime, max_splats it was sent with, indices sent or None for all, the node)
         self.selection_node = None
+        if sent is not None and session.ply("before").is_file() and sent[:2] == (session.ply("before").stat().st_mtime, max_splats):
+            self.splats["before"] = sent
         self._poller = None
         self._stopped = False
         self.server.scene.set_up_direction(tuple(scene_up(self.scene)))
@@ -182,11 +187,7 @@ class ViewerApp:
                 stamp = self.session.ply(self.mode).stat().st_mtime
                 have = self.splats.get(self.mode)
                 if have is None or have[:2] != (stamp, self.max_splats):
-                    arr = splat_arrays(g)
-                    keep = None
-                    if 0 < self.max_splats < len(g):
-                        keep = np.sort(np.argsort(-arr["opacities"][:, 0], kind="stable")[: self.max_splats])
-                        arr = {k: a[keep] for k, a in arr.items()}
+                    arr, keep = most_opaque(splat_arrays(g), self.max_splats)
                     node = self.server.scene.add_gaussian_splats(f"/splats/{self.mode}", **arr)
                     self.splats[self.mode] = (stamp, self.max_splats, keep, node)
             for mode, (*_, node) in self.splats.items():
@@ -371,13 +372,13 @@ class ViewerApp:
 
 
 def serve(session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, block: bool = True, server=None,
-          max_splats: int = 0) -> ViewerApp:  # fmt: skip
+          max_splats: int = 0, sent: tuple | None = None) -> ViewerApp:  # fmt: skip
     """Serve ``session``'s page (on ``server`` when given, see :class:`ViewerApp`); with ``block``
     until interrupted (Ctrl-C). Warns when ``host`` is not local."""
     warning = exposure_warning(host)
     if warning:
         warnings.warn(warning, stacklevel=3)
-    app = ViewerApp(session, host=host, port=port, server=server, max_splats=max_splats)
+    app = ViewerApp(session, host=host, port=port, server=server, max_splats=max_splats, sent=sent)
     if block:
         app.serve_forever()
     return app

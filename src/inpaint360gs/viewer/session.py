@@ -25,7 +25,7 @@ import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.gaussians import SH_C0, Gaussians, quat_to_rotmat
+from inpaint360gs.core.gaussians import Gaussians, quat_to_rotmat
 from inpaint360gs.core.layout import SCENE_JSON, RunLayout
 from inpaint360gs.io.atomic import write_text
 from inpaint360gs.io.ply import read_ply
@@ -38,26 +38,20 @@ from inpaint360gs.remove.objects import fill_masks
 from inpaint360gs.remove.select import select
 from inpaint360gs.remove.stage import RemovalPlan, Selected, complete_plan, load_field, plan_removal, select_removal, support_plane
 from inpaint360gs.render.feature_cache import FeatureRenders
+from inpaint360gs.viewer.splats import splat_arrays_np
 
 MODES = ("before", "removed", "inpainted")  # the splats the page can show: 3DGS, after removal, after inpainting
 
 
 def splat_arrays(g: Gaussians) -> dict[str, np.ndarray]:
-    """The Gaussians as a splat renderer takes them: ``centers`` (N, 3), ``covariances`` (N, 3, 3)
-    ``R S S^T R^T`` (Eq. 1's Sigma), ``rgbs`` (N, 3) the view-independent colour (degree-0 SH, as
-    the renderer's ``SH_C0 * dc + 0.5``, in [0, 1]) and ``opacities`` (N, 1); float32."""
-    with torch.no_grad():
-        R = quat_to_rotmat(g.quats.detach().double())
-        S = torch.diag_embed(g.scales.detach().double())
-        M = R @ S
-        cov = M @ M.transpose(1, 2)
-        rgb = torch.clamp(SH_C0 * g.sh0.detach()[:, 0, :].double() + 0.5, 0.0, 1.0)
-        return {
-            "centers": g.means.detach().float().numpy(),
-            "covariances": cov.float().numpy(),
-            "rgbs": rgb.float().numpy(),
-            "opacities": g.opacities.detach().float().numpy()[:, None],
-        }
+    """The Gaussians as a splat renderer takes them (:func:`.splats.splat_arrays_np`): ``centers``
+    (N, 3), ``covariances`` (N, 3, 3) ``R S S^T R^T`` (Eq. 1's Sigma), ``rgbs`` (N, 3) the
+    view-independent colour (degree-0 SH, as the renderer's ``SH_C0 * dc + 0.5``, in [0, 1]) and
+    ``opacities`` (N, 1); float32."""
+    def a(t):
+        return t.detach().cpu().double().numpy()
+
+    return splat_arrays_np(a(g.means), a(g.log_scales), a(g.quats), a(g.opacity_logits), a(g.sh0[:, 0, :]))
 
 
 def _wxyz(rot: np.ndarray) -> np.ndarray:
