@@ -10,6 +10,7 @@ import json
 
 import numpy as np
 import pytest
+import torch
 from object_fields import click_on, labelled_field, write_field
 
 from inpaint360gs.core.errors import InputError
@@ -204,6 +205,9 @@ def test_a_click_draws_its_selection_first_and_its_check_follows_the_same_as_run
     assert session.plan.check == ref.check and session.plan.targets == ref.targets
     assert all(np.array_equal(session.plan.masks[k], ref.masks[k]) for k in ref.masks)
     assert session.message.startswith("selected (id map); passed (object)")
+    from inpaint360gs.remove.select import click_id_map
+
+    assert list(session._id_maps) == [v.name] and torch.equal(session._id_maps[v.name], click_id_map(field, v))  # what select renders
     # two clicks in a row: what stays is the selection of both, checked as run with both checks it
     c2 = click_on(scene.train_views[4], BLOB_2)
     session.click(click_on(scene.train_views[5], BLOB_1), wait=False)  # drops blob 1

@@ -35,7 +35,7 @@ from inpaint360gs.pipeline.config import RunConfig
 from inpaint360gs.pipeline.run import STAGES, Runner
 from inpaint360gs.remove.select import Click
 from inpaint360gs.remove.objects import fill_masks
-from inpaint360gs.remove.select import select
+from inpaint360gs.remove.select import check_clicks, click_id_map, select
 from inpaint360gs.remove.stage import RemovalPlan, Selected, complete_plan, load_field, plan_removal, select_removal, support_plane
 from inpaint360gs.render.feature_cache import FeatureRenders
 from inpaint360gs.viewer.splats import splat_arrays_np
@@ -278,13 +278,14 @@ class ViewerSession:
         self.field = None
         self.renders: FeatureRenders | None = None
         self._support = None
+        self._id_maps: dict = {}  # view name -> the field's id map a click there reads (select's), rendered at the first click there
         self._warm = threading.Lock()
         self.reload_field()
 
     # --- what the run folder holds -----------------------------------------------------------------
     def reload_field(self) -> None:
         """Load the run's object field (``distill/``) when it exists; clicks are resolved with it."""
-        self.field, self.renders, self._support = None, None, None
+        self.field, self.renders, self._support, self._id_maps = None, None, None, {}
         if (self.layout.distill / "classifier.json").is_file():
             try:
                 self.field = load_field(self.layout.distill, self.scene)
@@ -380,7 +381,10 @@ class ViewerSession:
                 self.message = f"{len(self.clicks)} click(s); the object field does not exist yet: Run distils it and removes what they select"
                 return self.message
             # what each click picks (independent of the other clicks); a click on a selected object drops it
-            picked_all = select(self.field, self.scene, [*self.clicks, click], backend=self.cfg.backend)
+            for view in self._click_views([*self.clicks, click]):  # each view's id map rendered once (a click re-selects the earlier clicks too)
+                if view.name not in self._id_maps:
+                    self._id_maps[view.name] = click_id_map(self.field, view)
+            picked_all = select(self.field, self.scene, [*self.clicks, click], backend=self.cfg.backend, id_maps=self._id_maps)
             picked = picked_all[-1]
             same = []
             for c, p in zip(self.clicks, picked_all[:-1]):
@@ -415,6 +419,13 @@ class ViewerSession:
                 self._checked.wait()
                 return self.message
         return line
+
+    def _click_views(self, clicks: list[Click]) -> list[View]:
+        """The views of ``clicks`` that select can read (a bad click is left to select to say so)."""
+        try:
+            return check_clicks(self.scene, clicks)
+        except InputError:
+            return []
 
     def _check(self, gen: int, sel: Selected, masks: dict, what: str) -> None:
         """The rest of the plan of ``sel`` (fill masks of the other views, the check), in the background."""
