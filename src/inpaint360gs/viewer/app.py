@@ -70,6 +70,7 @@ class ViewerApp:
         self.mode = next(iter(session.available()), MODES[0])
         self.scale = 0.03 * max(self.scene.extent, 1e-6)  # frustum size: a fraction of the camera orbit
         self.frustums = {}
+        self._colors = {}  # frustum -> the colour it was last given
         self.max_splats = self.few_splats = max_splats
         self.splats = {}  # mode -> (the PLY's mtime, max_splats it was sent with, indices sent or None for all, the node)
         self.selection_node = None
@@ -176,6 +177,7 @@ class ViewerApp:
                                                       color=(120, 120, 120))  # fmt: skip
                 fr.on_click(lambda e, v=v: self.on_frustum_click(v.name, e.ray_origin, e.ray_direction))
                 self.frustums[v.name] = fr
+                self._colors[v.name] = (120, 120, 120)
 
     # --- what events do ------------------------------------------------------------------------------
     def show_splats(self) -> None:
@@ -236,7 +238,9 @@ class ViewerApp:
             if self.g_view.value != view.name:
                 self.g_view.value = view.name
             for name, fr in self.frustums.items():
-                fr.color = (255, 200, 0) if name == view.name else (120, 120, 120)
+                color = (255, 200, 0) if name == view.name else (120, 120, 120)
+                if self._colors.get(name) != color:  # each update is a message and a redraw in the page: only the changed ones
+                    fr.color = self._colors[name] = color
             self.g_image.image = self.session.side_by_side(view, self.mode)
             self._refresh_text()
             if move:
