@@ -208,3 +208,18 @@ def test_every_config_field_with_an_option_is_named_by_that_option(stage):
         if got != max(a.option_strings, key=len):
             bad.append(f"{owner.__name__}.{name} -> {got}, not {max(a.option_strings, key=len)}")
     assert not bad, f"inpaint360gs {stage}: " + "; ".join(bad)
+
+
+def test_the_cli_lists_the_backends_the_registry_has_without_importing_torch():
+    """--backend's choices come from the backend files' names (the viewer's command parses its
+    arguments and serves its page before torch is imported); they are the registry's."""
+    import subprocess
+    import sys
+
+    from inpaint360gs.cli.common import backend_choices
+    from inpaint360gs.render.backends import backend_choices as registry_choices
+
+    assert backend_choices()[0] == "auto" and set(backend_choices()) == set(registry_choices())
+    code = ("import argparse, sys; from inpaint360gs.cli import view; view.add_arguments(argparse.ArgumentParser()); "
+            "print('torch' in sys.modules)")  # fmt: skip
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "False"

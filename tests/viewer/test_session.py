@@ -10,6 +10,7 @@ import json
 
 import numpy as np
 import pytest
+import torch
 from object_fields import click_on, labelled_field, write_field
 
 from inpaint360gs.core.errors import InputError
@@ -180,3 +181,37 @@ def test_ray_hit_takes_the_front_surface_of_two_gaussians_in_a_row():
     assert np.allclose(ray_hit(g, [10, 0, 0], [-1, 0, 0]), [5, 0, 0])
     assert np.allclose(ray_hit(g, [0, 0.1, 0], [1, 0, 0]), [2, 0.1, 0])  # the closest approach lies on the ray
     assert ray_hit(g, [0, 2, 0], [1, 0, 0]) is None  # passes both by
+
+
+def test_a_click_draws_its_selection_first_and_its_check_follows_the_same_as_run_click(blobs, session):
+    """The page's click (``wait=False``): the selected Gaussians and the clicked photo's fill mask
+    come first, the other views' masks and the check in the background; all of them are
+    ``plan_removal``'s, and a newer click's selection replaces an older one still being checked."""
+    import threading
+
+    scene, _, _, field = blobs
+    session.warm()  # the support plane and the views' projections, as the page does once it is drawn
+    assert all(session.renders.holds(v.name) for v in scene.train_views)
+    checked = threading.Event()
+    session.on_checked = checked.set
+    v = scene.train_views[2]
+    c1 = click_on(v, BLOB_1)
+    ref = plan_removal(field, scene, clicks=[c1], cfg=session.cfg.removal, backend=session.cfg.backend)
+    line = session.click(c1, wait=False)
+    assert line.startswith("selected (id map)") and "checking" in line
+    assert np.array_equal(session.selected(), ref.removal.removed_mask.numpy())
+    assert np.array_equal(session.mask(v), ref.masks[v.name])
+    assert checked.wait(60) and not session.checking()
+    assert session.plan.check == ref.check and session.plan.targets == ref.targets
+    assert all(np.array_equal(session.plan.masks[k], ref.masks[k]) for k in ref.masks)
+    assert session.message.startswith("selected (id map); passed (object)")
+    from inpaint360gs.remove.select import click_id_map
+
+    assert list(session._id_maps) == [v.name] and torch.equal(session._id_maps[v.name], click_id_map(field, v))  # what select renders
+    # two clicks in a row: what stays is the selection of both, checked as run with both checks it
+    c2 = click_on(scene.train_views[4], BLOB_2)
+    session.click(click_on(scene.train_views[5], BLOB_1), wait=False)  # drops blob 1
+    session.click(c2, wait=False)
+    both = plan_removal(field, scene, clicks=[c2], cfg=session.cfg.removal, backend=session.cfg.backend)
+    assert session.clicks == [c2] and np.array_equal(session.selected(), both.removal.removed_mask.numpy())
+    assert session.plan.check == both.check and session.plan.targets == [7]

@@ -314,11 +314,9 @@ output_file = _writable(folder=False)  # argument type: a file to create or repl
 def add_scene_arguments(parser: argparse.ArgumentParser, *, llffhold: bool = True, resize_note: str = "") -> None:
     """``--resize`` and (with ``llffhold``) ``--llffhold``: how a stage reads its scene folder
     (``io.scene.load_scene``, whose defaults they take); ``resize_note`` ends ``--resize``'s help."""
-    import inspect
+    from inpaint360gs.core import layout  # load_scene's defaults, without importing it (torch: seconds before the viewer's page can load)
 
-    from inpaint360gs.io.scene import load_scene
-
-    defaults = {k: p.default for k, p in inspect.signature(load_scene).parameters.items()}
+    defaults = {"resize": layout.RESIZE, "llffhold": layout.LLFFHOLD}
     note = f"; {resize_note}" if resize_note else ""
     parser.add_argument("--resize", type=positive_int, default=defaults["resize"],
                         help=f"work on the images downscaled by this factor (images_<R>/ when present; default {defaults['resize']}{note})")  # fmt: skip
@@ -354,9 +352,18 @@ def set_threads(n: int) -> None:
         pass
 
 
+def backend_choices() -> list[str]:
+    """:func:`inpaint360gs.render.backends.backend_choices` without importing the renderer (torch:
+    seconds before the viewer's page can load): "auto" and the registry's names, one per
+    ``render/<name>_backend.py`` file (tests/cli check that the two agree)."""
+    import importlib.util
+    import pkgutil
+
+    spec = importlib.util.find_spec("inpaint360gs.render")
+    return ["auto", *sorted(m.name.removesuffix("_backend") for m in pkgutil.iter_modules(spec.submodule_search_locations) if m.name.endswith("_backend"))]
+
+
 def add_backend_argument(parser: argparse.ArgumentParser, default: str | None = "auto") -> None:
     """``--backend``; ``default`` None: the preset's (``inpaint360gs run --preset``)."""
-    from inpaint360gs.render.backends import backend_choices
-
     said = "the preset's" if default is None else default
     parser.add_argument("--backend", default=default, choices=backend_choices(), help=f"rasterizer backend (default {said})")

@@ -31,6 +31,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_threads_argument(parser)
 
 
+def _send_model(server, args: argparse.Namespace):
+    """The trained model's splats sent to ``server`` at once (:func:`inpaint360gs.viewer.splats.send_splats`),
+    or None when there is none yet or its file does not read so (the page sends them later)."""
+    from pathlib import Path
+
+    from inpaint360gs.core.layout import RunLayout
+    from inpaint360gs.viewer.splats import send_splats
+
+    path = args.model if args.model is not None else RunLayout(Path(args.out)).model if args.out is not None else None
+    if path is None or not Path(path).is_file():
+        return None
+    try:
+        return send_splats(server, path, args.max_splats)
+    except (OSError, ValueError, KeyError, IndexError):
+        return None
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``inpaint360gs view`` with parsed ``args`` (serves until Ctrl-C); returns the exit status."""
     from dataclasses import replace
@@ -39,14 +56,16 @@ def run(args: argparse.Namespace) -> int:
 
     server = start_server(args.host, args.port)  # before torch is imported: the browser loads the page meanwhile
     try:
-        from inpaint360gs.io.scene import load_scene
-        from inpaint360gs.pipeline.presets import get_preset
-        from inpaint360gs.viewer.api import view
-
         warning = exposure_warning(args.host)
         if warning:
             print(f"warning: {warning}", flush=True)
         print(f"inpaint360gs view: http://{args.host}:{server.get_port()} (Ctrl-C to stop)", flush=True)
+        sent = _send_model(server, args)  # still before torch: the browser draws them while the rest loads
+
+        from inpaint360gs.io.scene import load_scene
+        from inpaint360gs.pipeline.presets import get_preset
+        from inpaint360gs.viewer.api import view
+
         set_threads(args.threads)
         scene = load_scene(args.scene, resize=args.resize, load_masks=False)
         cfg = get_preset(args.preset)
@@ -54,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
             cfg = replace(cfg, backend=args.backend)
         with warnings.catch_warnings():  # said above, as one line
             warnings.simplefilter("ignore")
-            app = view(scene, args.out, cfg=cfg, model=args.model, accept=args.accept, block=False, max_splats=args.max_splats, server=server)
+            app = view(scene, args.out, cfg=cfg, model=args.model, accept=args.accept, block=False, max_splats=args.max_splats, server=server, sent=sent)
     except BaseException:
         server.stop()
         raise

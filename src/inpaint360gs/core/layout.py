@@ -49,6 +49,7 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 # Mask files are looked up by the image's stem with one of these suffixes (or the image's own name).
 MASK_SUFFIXES = (".png", ".PNG", ".jpg", ".jpeg", ".JPG", ".tif", ".tiff")
 LLFFHOLD = 8
+RESIZE = 1  # load_scene's default downscale factor (the CLIs' --resize)
 
 # ``scene.json`` key saying whether the scene has object-free ground truth (``test_`` views, unseen
 # masks). ``false`` for a scene built from object-inclusive photos only (the method's real use: the

@@ -26,6 +26,7 @@ from inpaint360gs.io.ply import read_ply
 
 CLASSIFIER_JSON = "classifier.json"
 MODEL_PLY = "point_cloud.ply"
+DISTILL_JSON = "distill.json"  # the distillation's report (distill/stage.py writes it)
 
 
 def make_classifier(feature_dim: int, num_classes: int, generator: torch.Generator) -> torch.nn.Linear:

@@ -34,7 +34,7 @@ from inpaint360gs.core.files import sha256_file
 from inpaint360gs.core.gaussians import SH_C0, Gaussians
 from inpaint360gs.distill.cached import CachedFeatureRenderer, spatial_order
 from inpaint360gs.distill.config import DistillConfig
-from inpaint360gs.distill.field import CLASSIFIER_JSON, MODEL_PLY, IdentityField, make_classifier, write_classifier
+from inpaint360gs.distill.field import CLASSIFIER_JSON, DISTILL_JSON, MODEL_PLY, IdentityField, make_classifier, write_classifier
 from inpaint360gs.distill.labels import Labels, load_labels, read_objects
 from inpaint360gs.distill.loss import knn_graph, object_loss, spatial_loss
 from inpaint360gs.gs.loop import OptimizationLoop, Target, TargetList
@@ -46,7 +46,6 @@ from inpaint360gs.io.ply import read_ply, write_ply
 from inpaint360gs.io.scene import Scene
 from inpaint360gs.render.contributions import Contributions, contributions
 
-DISTILL_JSON = "distill.json"
 MIN_COVERAGE = 0.01  # a model covering less of the training pixels (alpha >= 0.5) is not of this scene
 
 

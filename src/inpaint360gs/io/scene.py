@@ -202,7 +202,7 @@ def nerf_radius(cameras: Sequence[Camera]) -> float:
 def load_scene(
     root: str | Path,
     *,
-    resize: int = 1,
+    resize: int = layout.RESIZE,
     llffhold: int = layout.LLFFHOLD,
     load_masks: bool | Sequence[str] = True,
     unregistered: Literal["error", "warn"] = "error",

@@ -33,6 +33,7 @@ from inpaint360gs.io.scene import View
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.geometry import footprint_columns, hanging_below, inlier_points, inside_hull, object_body, upright
 from inpaint360gs.render.api import render
+from inpaint360gs.render.feature_cache import FeatureRenders
 
 
 @dataclass
@@ -56,13 +57,15 @@ def remove_objects(
     grown: list[np.ndarray] | None = None,
     views: list[View] | None = None,
     backend: str = "auto",
+    renders: FeatureRenders | None = None,
 ) -> Removal:
     """Remove the objects ``object_ids`` from the field's Gaussians (steps 1-4 of the module docstring);
     ``heights`` (N,) above the support plane and the orbit ``radius`` enable ``protect_support``,
     with the plane's normal ``up`` also ``support_column``. ``grown``: (N,) bool sets of Gaussians
     selected by a click where the field knows no object (:func:`.select.select`), removed like an
     object whose step 1 took them. ``views``: the training views, for step 4's silhouette test
-    over the object's top (``RemovalConfig.column_silhouette``; None: no test)."""
+    over the object's top (``RemovalConfig.column_silhouette``; None: no test); ``renders`` their
+    projections kept between calls (:class:`FeatureRenders`: the same test, faster)."""
     cfg = cfg or RemovalConfig()
     grown = list(grown or [])
     known = set(field_.object_ids) - {0}
@@ -113,13 +116,13 @@ def remove_objects(
     if cfg.footprint_margin is not None:
         opac = field_.gaussians.opacities.detach().cpu().double().numpy()
         colours = (SH_C0 * field_.gaussians.sh0[:, 0].detach().cpu().double().numpy() + 0.5).clip(0.0, 1.0)
-        share = silhouette_share(field_.gaussians, views, backend) if views else None
+        share = silhouette_share(field_.gaussians, views, backend, renders=renders) if views else None
         remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts, colours, share)
     mask = torch.from_numpy(remove)
     return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts, footprints)
 
 
-def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto", grow_px: int = 2):
+def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto", grow_px: int = 2, renders: FeatureRenders | None = None):
     """``share(indices, body) -> (M,)``: for the Gaussians ``indices`` of ``model``, the share of the
     ``views`` whose frame holds a Gaussian's centre (in front of the camera) in which that centre
     lies in the silhouette of the Gaussians ``body`` ((N,) bool; drawn as the fill masks are, grown
@@ -130,10 +133,10 @@ def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto",
     kernel = np.ones((2 * grow_px + 1, 2 * grow_px + 1), np.uint8)
 
     def share(indices: np.ndarray, body: np.ndarray) -> np.ndarray:
-        masks = fill_masks(model, torch.from_numpy(np.asarray(body, dtype=bool)), views, 0.5, backend)
         inside = np.zeros(len(indices))
         seen = np.zeros(len(indices))
         X = means[indices]
+        where = {}
         for v in views:
             cam = v.camera
             xc = X @ cam.R.double().numpy().T + cam.t.double().numpy()
@@ -142,6 +145,12 @@ def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto",
             u = np.floor(cam.fx * xc[:, 0] / np.where(front, z, 1.0) + cam.cx).astype(np.int64)
             w = np.floor(cam.fy * xc[:, 1] / np.where(front, z, 1.0) + cam.cy).astype(np.int64)
             ok = front & (u >= 0) & (u < cam.width) & (w >= 0) & (w < cam.height)
+            where[v.name] = (u, w, ok)
+        # the silhouettes are read only within grow_px of the centres' pixels
+        near = {n: (u[ok], w[ok]) for n, (u, w, ok) in where.items()}
+        masks = fill_masks(model, torch.from_numpy(np.asarray(body, dtype=bool)), views, 0.5, backend, renders, near=near, margin=grow_px)
+        for v in views:
+            u, w, ok = where[v.name]
             sil = cv2.dilate(masks[v.name].astype(np.uint8), kernel).astype(bool)
             seen += ok
             inside[ok] += sil[w[ok], u[ok]]
@@ -151,11 +160,19 @@ def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto",
 
 
 @torch.no_grad()
-def fill_masks(model: Gaussians, removed_mask: torch.Tensor, views: list[View], share: float = 0.5, backend: str = "auto") -> dict[str, np.ndarray]:
+def fill_masks(model: Gaussians, removed_mask: torch.Tensor, views: list[View], share: float = 0.5, backend: str = "auto",
+               renders: FeatureRenders | None = None, near: dict | None = None, margin: int = 0) -> dict[str, np.ndarray]:  # fmt: skip
     """Per view, the pixels at least ``share`` of whose colour the removed Gaussians gave in ``model``
-    (see the module docstring): the removed objects' rendered footprint."""
+    (see the module docstring): the removed objects' rendered footprint. ``renders``: the views'
+    projections of ``model`` kept between calls (the viewer's clicks; the same masks, faster);
+    with it, ``near`` (view name -> (x, y) pixel arrays) says that only the mask within ``margin``
+    pixels of those is wanted (elsewhere it may be left False)."""
+    feats = removed_mask.to(model.means.dtype)[:, None]
+    if renders is not None and renders.gaussians is model:
+        near = near or {}
+        return {v.name: (renders.features(v.name, v.camera, feats, near=near.get(v.name), margin=margin)[..., 0] >= share).numpy() for v in views}
     g = model.map(lambda t: t)
-    g.features = removed_mask.to(model.means.dtype)[:, None]
+    g.features = feats
     out = {}
     for v in views:
         o = render(g, v.camera, with_features=True, backend=backend)

@@ -154,15 +154,16 @@ def resolve_clicks(field_: IdentityField, scene: Scene, clicks: list[Click], *, 
 
 
 def select(field_: IdentityField, scene: Scene, clicks: list[Click], *, grow: bool = True, backend: str = "auto",
-           pixel_share: float = 0.5, max_share: float = 0.5) -> list[ClickSelection]:  # fmt: skip
+           pixel_share: float = 0.5, max_share: float = 0.5, id_maps: dict | None = None) -> list[ClickSelection]:  # fmt: skip
     """What each click selects (the module docstring's three steps). ``pixel_share``: the share of the
     pixel's colour an object must own in step 2; ``max_share``: a grown set holding more than this
-    share of the Gaussians standing on the support is not one object (step 3 refuses it)."""
+    share of the Gaussians standing on the support is not one object (step 3 refuses it).
+    ``id_maps``: view name -> :func:`id_map` of that view, when already rendered (the viewer's)."""
     out = []
     frame = None
     for c, view in zip(clicks, check_clicks(scene, clicks)):
         x, y = c.pixel(view)
-        id_map, _ = field_.render_ids(view.camera, min_alpha=0.5)  # less than half covered: nothing there
+        id_map = id_maps[view.name] if id_maps is not None and view.name in id_maps else click_id_map(field_, view)
         oid = int(id_map[y, x])
         if oid != 0:
             out.append(ClickSelection(c, "id map", object_id=oid))
@@ -182,6 +183,12 @@ def select(field_: IdentityField, scene: Scene, clicks: list[Click], *, grow: bo
             frame = _frame(field_, scene)
         out.append(ClickSelection(c, "grown", gaussians=_grow(field_, frame, idx, weights, c, max_share)))
     return out
+
+
+def click_id_map(field_: IdentityField, view: View):
+    """(H, W) the object id map a click reads (:meth:`IdentityField.render_ids`; id 0 where the
+    pixel is less than half covered: nothing there)."""
+    return field_.render_ids(view.camera, min_alpha=0.5)[0]
 
 
 def _pixel_weights(field_: IdentityField, view: View, x: int, y: int, backend: str) -> tuple[np.ndarray, np.ndarray]:

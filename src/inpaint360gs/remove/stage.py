@@ -21,19 +21,18 @@ from inpaint360gs.io.atomic import atomic_dir, check_output_dir
 from inpaint360gs.io.images import write_mask
 from inpaint360gs.io.ply import write_ply
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.metrics import amcr
 from inpaint360gs.remove.check import SelectionCheck, assess_selection
 from inpaint360gs.remove.config import RemovalConfig
 from inpaint360gs.remove.objects import Removal, fill_masks, remove_objects
 from inpaint360gs.remove.select import Click, ClickSelection, check_selection, select, support_heights
+from inpaint360gs.render.feature_cache import FeatureRenders
 
 
 def load_field(folder: str | Path, scene: Scene) -> IdentityField:
     """The distillation output ``folder`` (:meth:`IdentityField.load`), checked against its
     ``distill.json`` when there is one: the Gaussian count it records, and the scene it was
     distilled from, which must be ``scene`` (content hash and ``--resize``)."""
-    from inpaint360gs.distill.field import MODEL_PLY
-    from inpaint360gs.distill.stage import DISTILL_JSON
+    from inpaint360gs.distill.field import DISTILL_JSON, MODEL_PLY  # not distill.stage: it imports the trainer and the metrics (seconds)
 
     folder = Path(folder)
     field_ = IdentityField.load(folder)
@@ -61,24 +60,71 @@ class RemovalPlan:
     masks: dict[str, np.ndarray]  # per training view: the pixels to fill (the removed Gaussians' rendered footprint)
 
 
-def plan_removal(field_: IdentityField, scene: Scene, *, clicks: list[Click] | None = None, ids: list[int] | None = None,
-                 cfg: RemovalConfig | None = None, backend: str = "auto") -> RemovalPlan:  # fmt: skip
-    """Select (clicks and/or ids), remove in memory and check the selection; writes nothing (the
-    viewer and :func:`remove_stage` share it). Raises :class:`InputError` for a click that selects
-    nothing or an unknown id."""
+@dataclass
+class Selected:
+    """The first half of a :class:`RemovalPlan` (:func:`select_removal`): what the clicks and ids
+    select and what the removal takes, before the fill masks and the check."""
+
+    clicks: list[Click]
+    picked: list[ClickSelection]
+    targets: list[int]
+    removal: Removal
+    support_note: str
+    heights: np.ndarray | None
+    radius: float
+
+
+def support_plane(field_: IdentityField, scene: Scene, cfg: RemovalConfig | None = None) -> tuple[np.ndarray | None, float, str, np.ndarray | None]:
+    """What :func:`.select.support_heights` gives when ``cfg`` uses the support plane, else (None, 0,
+    "support guard off", None); the same for every selection on one field (the viewer keeps it)."""
+    cfg = cfg or RemovalConfig()
+    needs_plane = cfg.protect_support is not None or cfg.support_column is not None or cfg.footprint_margin is not None
+    return support_heights(field_, scene) if needs_plane else (None, 0.0, "support guard off", None)
+
+
+def select_removal(field_: IdentityField, scene: Scene, *, clicks: list[Click] | None = None, ids: list[int] | None = None,
+                   cfg: RemovalConfig | None = None, backend: str = "auto", support=None, renders: FeatureRenders | None = None,
+                   picked: list[ClickSelection] | None = None) -> Selected:  # fmt: skip
+    """Select (clicks and/or ids) and remove in memory: :func:`plan_removal` up to its fill masks.
+    ``support``: :func:`support_plane` of this field when already found; ``renders``: the training
+    views' projections of the field's Gaussians kept between calls (the same result, faster);
+    ``picked``: :func:`.select.select` of these clicks when already done (each click's is its own)."""
     cfg = cfg or RemovalConfig()
     clicks = list(clicks or [])
-    picked = select(field_, scene, clicks, backend=backend)
+    picked = select(field_, scene, clicks, backend=backend) if picked is None else list(picked)
+    if len(picked) != len(clicks):
+        raise ValueError("picked must hold one selection per click")
     targets = [p.object_id for p in picked if p.object_id is not None] + list(ids or [])
     targets = list(dict.fromkeys(targets))  # keep order, drop repeats
     grown = [p.gaussians for p in picked if p.gaussians is not None]
-    needs_plane = cfg.protect_support is not None or cfg.support_column is not None or cfg.footprint_margin is not None
-    heights, radius, support_note, up = support_heights(field_, scene) if needs_plane else (None, 0.0, "support guard off", None)
-    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up, grown=grown, views=scene.train_views, backend=backend)
-    masks = fill_masks(field_.gaussians, res.removed_mask, scene.train_views, cfg.mask_share, backend)
+    heights, radius, support_note, up = support_plane(field_, scene, cfg) if support is None else support
+    res = remove_objects(field_, targets, cfg, heights=heights, radius=radius, up=up, grown=grown, views=scene.train_views, backend=backend,
+                         renders=renders)  # fmt: skip
+    return Selected(clicks, picked, targets, res, support_note, heights, radius)
+
+
+def complete_plan(field_: IdentityField, scene: Scene, sel: Selected, *, cfg: RemovalConfig | None = None, backend: str = "auto",
+                  renders: FeatureRenders | None = None, masks: dict[str, np.ndarray] | None = None) -> RemovalPlan:  # fmt: skip
+    """The rest of :func:`plan_removal` after :func:`select_removal`: the fill masks of the training
+    views (those in ``masks`` already drawn for this selection are kept) and the selection check."""
+    cfg = cfg or RemovalConfig()
+    masks = dict(masks or {})
+    todo = [v for v in scene.train_views if v.name not in masks]
+    masks.update(fill_masks(field_.gaussians, sel.removal.removed_mask, todo, cfg.mask_share, backend, renders))
+    masks = {v.name: masks[v.name] for v in scene.train_views}
     # ids only: no click to place the selection by; its size, support and backdrop tests still hold
-    check = assess_selection(field_, scene, res.removed_mask.numpy(), clicks, heights=heights, radius=radius, masks=masks)
-    return RemovalPlan(picked, targets, res, check, support_note, masks)
+    check = assess_selection(field_, scene, sel.removal.removed_mask.numpy(), sel.clicks, heights=sel.heights, radius=sel.radius, masks=masks)
+    return RemovalPlan(sel.picked, sel.targets, sel.removal, check, sel.support_note, masks)
+
+
+def plan_removal(field_: IdentityField, scene: Scene, *, clicks: list[Click] | None = None, ids: list[int] | None = None,
+                 cfg: RemovalConfig | None = None, backend: str = "auto", support=None, renders: FeatureRenders | None = None) -> RemovalPlan:  # fmt: skip
+    """Select (clicks and/or ids), remove in memory and check the selection; writes nothing (the
+    viewer and :func:`remove_stage` share it). Raises :class:`InputError` for a click that selects
+    nothing or an unknown id. ``support`` and ``renders``: as :func:`select_removal` (the viewer's
+    clicks keep them; the same plan, faster)."""
+    sel = select_removal(field_, scene, clicks=clicks, ids=ids, cfg=cfg, backend=backend, support=support, renders=renders)
+    return complete_plan(field_, scene, sel, cfg=cfg, backend=backend, renders=renders)
 
 
 def remove_stage(
@@ -104,6 +150,8 @@ def remove_stage(
     Returns: what ``removal.json`` holds; its ``selection_check`` says whether the selection is an
     object (:mod:`.check`; the stage records it, ``inpaint360gs run`` acts on it).
     Raises: :class:`InputError` for a non-empty ``out`` or a click that selects nothing."""
+    from inpaint360gs.metrics import amcr  # here: torchmetrics and scipy.stats take seconds to import (the viewer's page waits for plan_removal's imports)
+
     check_stage_call("remove_stage", scene, out, cfg, RemovalConfig, overwrite=overwrite, progress=progress)
     if not isinstance(field_, IdentityField):
         raise InputError(f"expected an IdentityField (load_field), got {type(field_).__name__}", setting="remove_stage.field_")

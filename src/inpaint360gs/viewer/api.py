@@ -23,7 +23,7 @@ def default_run_folder(scene: Scene) -> Path:
 
 def view(scene: Scene, out: str | Path | None = None, *, cfg: RunConfig | None = None, model: str | Path | None = None, host: str = "127.0.0.1",
          port: int = DEFAULT_PORT, accept: bool = False, block: bool = True, on_ready=None,
-         max_splats: int = DEFAULT_SPLATS, server=None):  # fmt: skip
+         max_splats: int = DEFAULT_SPLATS, server=None, sent: tuple | None = None):  # fmt: skip
     """Serve the viewer of ``scene`` and the run folder ``out`` (default :func:`default_run_folder`).
 
     Args: ``cfg`` the run's settings (default: the default preset's, as ``inpaint360gs run``);
@@ -33,7 +33,8 @@ def view(scene: Scene, out: str | Path | None = None, *, cfg: RunConfig | None =
     called as soon as the page can be opened, before the scene's content is loaded (it fills in as
     it comes); ``max_splats`` the most opaque splats drawn at first (:data:`DEFAULT_SPLATS`; 0: all;
     the page's "splats" switches to all); ``server`` one :func:`.server.start_server` started
-    (``host``, ``port`` and ``on_ready`` are then its caller's; ``inpaint360gs view`` starts it first).
+    (``host``, ``port`` and ``on_ready`` are then its caller's; ``inpaint360gs view`` starts it first);
+    ``sent`` the trained model's splats already on ``server`` (:func:`.splats.send_splats`).
     Returns: the running :class:`inpaint360gs.viewer.app.ViewerApp` (``.port``, ``.stop()``).
     Raises: :class:`InputError` for a bad argument or a missing viser (``pip install -e .[viewer]``)."""
     from inpaint360gs.viewer.session import ViewerSession
@@ -63,7 +64,7 @@ def view(scene: Scene, out: str | Path | None = None, *, cfg: RunConfig | None =
         if on_ready is not None:
             on_ready(server.get_port())
         session = ViewerSession(scene, default_run_folder(scene) if out is None else out, cfg, model=model, accept=accept)
-        return serve(session, host=host, port=port, block=block, server=server, max_splats=max_splats)
+        return serve(session, host=host, port=port, block=block, server=server, max_splats=max_splats, sent=sent)
     except BaseException:
         server.stop()
         raise

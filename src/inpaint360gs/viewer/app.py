@@ -23,11 +23,13 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.pipeline.run import STAGES
 from inpaint360gs.remove.select import Click
 from inpaint360gs.viewer.server import exposure_warning
+from inpaint360gs.viewer.splats import most_opaque
 from inpaint360gs.viewer.session import MODES, ViewerSession, camera_pose, frustum_depth, frustum_shape, pixel_from_ray, scene_up, splat_arrays
 
 SELECTED_TINT = np.array([1.0, 0.1, 0.1], np.float32)  # colour the selected Gaussians are drawn in (half-blended)
@@ -48,13 +50,15 @@ class ViewerApp:
     """The page of ``session``, served on ``host``:``port`` (0: a free port) until :meth:`stop`."""
 
     def __init__(self, session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, server=None, max_splats: int = 0,
-                 background: bool = True):  # fmt: skip
+                 background: bool = True, sent: tuple | None = None):  # fmt: skip
         """``server``: a viser server already serving (:func:`inpaint360gs.viewer.api.view` starts it
         first, so that the browser loads the page while the scene loads), else one on ``host``:``port``.
         ``max_splats``: the most opaque splats drawn (0: all; the panel can switch to all; the
         viewer's command draws :data:`inpaint360gs.viewer.server.DEFAULT_SPLATS`). The splats
         are sent before this returns; the cameras with their photos and the panel's render follow in
-        a thread (``background``; else before returning): :meth:`wait_loaded` waits for them."""
+        a thread (``background``; else before returning): :meth:`wait_loaded` waits for them.
+        ``sent``: the 'before' splats ``server`` holds already (:func:`.splats.send_splats`; kept
+        when they are the shown PLY's at ``max_splats``)."""
         import viser
 
         self.session = session
@@ -66,15 +70,20 @@ class ViewerApp:
         self.mode = next(iter(session.available()), MODES[0])
         self.scale = 0.03 * max(self.scene.extent, 1e-6)  # frustum size: a fraction of the camera orbit
         self.frustums = {}
+        self._colors = {}  # frustum -> the colour it was last given
         self.max_splats = self.few_splats = max_splats
         self.splats = {}  # mode -> (the PLY's mtime, max_splats it was sent with, indices sent or None for all, the node)
         self.selection_node = None
+        if sent is not None and session.ply("before").is_file() and sent[:2] == (session.ply("before").stat().st_mtime, max_splats):
+            self.splats["before"] = sent
         self._poller = None
+        self._stopped = False
         self.server.scene.set_up_direction(tuple(scene_up(self.scene)))
         self._build_gui()
         # viser's splat nodes report no clicks: a shift-click anywhere in the scene gives the ray (a plain
         # click stays the frustums' and the camera's)
         self.server.scene.on_click(modifier="shift")(lambda e: self.on_splat_click(e.ray_origin, e.ray_direction))
+        session.on_checked = self._on_checked
         self.show_splats()
         self._loader = threading.Thread(target=self._load_rest, name="inpaint360gs-viewer-load", daemon=True)
         if background:
@@ -88,6 +97,14 @@ class ViewerApp:
         self._add_cameras()
         with self.lock:
             self.show_view(self.current, move=False)  # the chosen camera's frustum coloured
+        # what every click's selection re-uses, before the first click (a click meanwhile does what is missing)
+        threading.Thread(target=self.session.warm, name="inpaint360gs-viewer-warm", daemon=True).start()
+
+    def _on_checked(self) -> None:
+        """The selection's check is done (a background thread): its line in the panel."""
+        with self.lock:
+            if not self._stopped:
+                self._refresh_text()
 
     def wait_loaded(self, timeout: float | None = None) -> bool:
         """Wait until the page's content is all sent (tests); True when it is."""
@@ -160,6 +177,7 @@ class ViewerApp:
                                                       color=(120, 120, 120))  # fmt: skip
                 fr.on_click(lambda e, v=v: self.on_frustum_click(v.name, e.ray_origin, e.ray_direction))
                 self.frustums[v.name] = fr
+                self._colors[v.name] = (120, 120, 120)
 
     # --- what events do ------------------------------------------------------------------------------
     def show_splats(self) -> None:
@@ -171,11 +189,7 @@ class ViewerApp:
                 stamp = self.session.ply(self.mode).stat().st_mtime
                 have = self.splats.get(self.mode)
                 if have is None or have[:2] != (stamp, self.max_splats):
-                    arr = splat_arrays(g)
-                    keep = None
-                    if 0 < self.max_splats < len(g):
-                        keep = np.sort(np.argsort(-arr["opacities"][:, 0], kind="stable")[: self.max_splats])
-                        arr = {k: a[keep] for k, a in arr.items()}
+                    arr, keep = most_opaque(splat_arrays(g), self.max_splats)
                     node = self.server.scene.add_gaussian_splats(f"/splats/{self.mode}", **arr)
                     self.splats[self.mode] = (stamp, self.max_splats, keep, node)
             for mode, (*_, node) in self.splats.items():
@@ -203,7 +217,7 @@ class ViewerApp:
             idx = np.flatnonzero(sel) if keep is None else keep[sel[keep]]  # the selected ones among those drawn
             if len(idx) == 0:
                 return
-            arr = {k: a[idx] for k, a in splat_arrays(g).items()}
+            arr = splat_arrays(g.subset(torch.from_numpy(idx)))
             arr["rgbs"] = 0.5 * arr["rgbs"] + 0.5 * SELECTED_TINT
             # over the untinted copies at the same centres: a little larger and nearly opaque, so that
             # the tinted ones lie in front from every side
@@ -224,7 +238,9 @@ class ViewerApp:
             if self.g_view.value != view.name:
                 self.g_view.value = view.name
             for name, fr in self.frustums.items():
-                fr.color = (255, 200, 0) if name == view.name else (120, 120, 120)
+                color = (255, 200, 0) if name == view.name else (120, 120, 120)
+                if self._colors.get(name) != color:  # each update is a message and a redraw in the page: only the changed ones
+                    fr.color = self._colors[name] = color
             self.g_image.image = self.session.side_by_side(view, self.mode)
             self._refresh_text()
             if move:
@@ -253,17 +269,18 @@ class ViewerApp:
         """A click on the splats: the session's selection of the object the ray hits first (the
         photo click at the pixel it projects to), drawn. Returns the session's line."""
         with self.lock:
-            c, line = self.session.click_ray(origin, direction)
-            self.show_selection()
+            c, line = self.session.click_ray(origin, direction, wait=False)
             self.show_view(self.current if c is None else self.scene.view(c.view), move=False)
+            self.show_selection()
             return line
 
     def click(self, click: Click) -> str:
-        """Select (or drop) the object under ``click`` and draw the selection."""
+        """Select (or drop) the object under ``click`` and draw the selection; its check follows
+        (:meth:`.session.ViewerSession.click` without waiting: the panel's line when it is done)."""
         with self.lock:
-            line = self.session.click(click)
+            line = self.session.click(click, wait=False)
+            self.show_view(self.scene.view(click.view), move=False)  # the photo with its mask first: the cheaper to draw
             self.show_selection()
-            self.show_view(self.scene.view(click.view), move=False)
             return line
 
     def _clear(self) -> None:
@@ -342,6 +359,8 @@ class ViewerApp:
         return self.server.get_port()
 
     def stop(self) -> None:
+        with self.lock:
+            self._stopped = True
         self.server.stop()
 
     def serve_forever(self) -> None:
@@ -357,13 +376,13 @@ class ViewerApp:
 
 
 def serve(session: ViewerSession, *, host: str = "127.0.0.1", port: int = 8080, block: bool = True, server=None,
-          max_splats: int = 0) -> ViewerApp:  # fmt: skip
+          max_splats: int = 0, sent: tuple | None = None) -> ViewerApp:  # fmt: skip
     """Serve ``session``'s page (on ``server`` when given, see :class:`ViewerApp`); with ``block``
     until interrupted (Ctrl-C). Warns when ``host`` is not local."""
     warning = exposure_warning(host)
     if warning:
         warnings.warn(warning, stacklevel=3)
-    app = ViewerApp(session, host=host, port=port, server=server, max_splats=max_splats)
+    app = ViewerApp(session, host=host, port=port, server=server, max_splats=max_splats, sent=sent)
     if block:
         app.serve_forever()
     return app

@@ -25,7 +25,7 @@ import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
-from inpaint360gs.core.gaussians import SH_C0, Gaussians, quat_to_rotmat
+from inpaint360gs.core.gaussians import Gaussians, quat_to_rotmat
 from inpaint360gs.core.layout import SCENE_JSON, RunLayout
 from inpaint360gs.io.atomic import write_text
 from inpaint360gs.io.ply import read_ply
@@ -34,27 +34,24 @@ from inpaint360gs.pipeline.check import CHECK_JSON, CHECK_PICTURE, selection_ove
 from inpaint360gs.pipeline.config import RunConfig
 from inpaint360gs.pipeline.run import STAGES, Runner
 from inpaint360gs.remove.select import Click
-from inpaint360gs.remove.stage import RemovalPlan, load_field, plan_removal
+from inpaint360gs.remove.objects import fill_masks
+from inpaint360gs.remove.select import check_clicks, click_id_map, select
+from inpaint360gs.remove.stage import RemovalPlan, Selected, complete_plan, load_field, plan_removal, select_removal, support_plane
+from inpaint360gs.render.feature_cache import FeatureRenders
+from inpaint360gs.viewer.splats import splat_arrays_np
 
 MODES = ("before", "removed", "inpainted")  # the splats the page can show: 3DGS, after removal, after inpainting
 
 
 def splat_arrays(g: Gaussians) -> dict[str, np.ndarray]:
-    """The Gaussians as a splat renderer takes them: ``centers`` (N, 3), ``covariances`` (N, 3, 3)
-    ``R S S^T R^T`` (Eq. 1's Sigma), ``rgbs`` (N, 3) the view-independent colour (degree-0 SH, as
-    the renderer's ``SH_C0 * dc + 0.5``, in [0, 1]) and ``opacities`` (N, 1); float32."""
-    with torch.no_grad():
-        R = quat_to_rotmat(g.quats.detach().double())
-        S = torch.diag_embed(g.scales.detach().double())
-        M = R @ S
-        cov = M @ M.transpose(1, 2)
-        rgb = torch.clamp(SH_C0 * g.sh0.detach()[:, 0, :].double() + 0.5, 0.0, 1.0)
-        return {
-            "centers": g.means.detach().float().numpy(),
-            "covariances": cov.float().numpy(),
-            "rgbs": rgb.float().numpy(),
-            "opacities": g.opacities.detach().float().numpy()[:, None],
-        }
+    """The Gaussians as a splat renderer takes them (:func:`.splats.splat_arrays_np`): ``centers``
+    (N, 3), ``covariances`` (N, 3, 3) ``R S S^T R^T`` (Eq. 1's Sigma), ``rgbs`` (N, 3) the
+    view-independent colour (degree-0 SH, as the renderer's ``SH_C0 * dc + 0.5``, in [0, 1]) and
+    ``opacities`` (N, 1); float32."""
+    def a(t):
+        return t.detach().cpu().double().numpy()
+
+    return splat_arrays_np(a(g.means), a(g.log_scales), a(g.quats), a(g.opacity_logits), a(g.sh0[:, 0, :]))
 
 
 def _wxyz(rot: np.ndarray) -> np.ndarray:
@@ -266,22 +263,57 @@ class ViewerSession:
             raise InputError(f"unknown stage {until!r} (one of {', '.join(STAGES)})", setting="until")
         self.until = until
         self.clicks: list[Click] = []
-        self.plan: RemovalPlan | None = None
+        self.selection: Selected | None = None  # what the clicks select, drawn at once; its check follows (plan)
+        self._plan: RemovalPlan | None = None
+        self._checked = threading.Event()  # set when _plan is the selection's whole plan (or there is none)
+        self._checked.set()
+        self._generation = 0  # bumped by each new selection: a check of an older one is dropped
+        self._masks: dict[str, np.ndarray] = {}  # fill masks of the current selection drawn so far
+        self.on_checked = None  # called (no arguments, from a background thread) when a selection's check is done
         self.job: RunJob | None = None
         self.message = ""
         self._gaussians: dict[str, tuple[float, Gaussians]] = {}
+        self._renders: dict[tuple, np.ndarray] = {}  # (view, mode, PLY mtime) -> the panel's render
+        self._photos: dict[str, np.ndarray] = {}  # view -> its photo, as read
         self.field = None
+        self.renders: FeatureRenders | None = None
+        self._support = None
+        self._id_maps: dict = {}  # view name -> the field's id map a click there reads (select's), rendered at the first click there
+        self._warm = threading.Lock()
         self.reload_field()
 
     # --- what the run folder holds -----------------------------------------------------------------
     def reload_field(self) -> None:
         """Load the run's object field (``distill/``) when it exists; clicks are resolved with it."""
-        self.field = None
+        self.field, self.renders, self._support, self._id_maps = None, None, None, {}
         if (self.layout.distill / "classifier.json").is_file():
             try:
                 self.field = load_field(self.layout.distill, self.scene)
             except InputError as e:
                 self.message = f"the run's object field cannot be used: {e}"
+        if self.field is not None:
+            self.renders = FeatureRenders(self.field.gaussians, self.cfg.backend)
+
+    def support(self):
+        """The field's support plane (:func:`support_plane`), found once per field."""
+        with self._warm:
+            if self._support is None and self.field is not None:
+                self._support = support_plane(self.field, self.scene, self.cfg.removal)
+            return self._support
+
+    def warm(self) -> None:
+        """Do before any click what every click's selection re-uses (README "Viewer"): the support
+        plane and each training view's projection of the field's Gaussians (:class:`FeatureRenders`).
+        The viewer runs it in a background thread once the page is drawn; a click meanwhile does
+        what is missing itself. The selections are the same with or without it."""
+        renders = self.renders
+        if renders is None:
+            return
+        self.support()
+        for v in self.scene.train_views:
+            if self.renders is not renders:  # the field was reloaded
+                return
+            renders.prepare(v.name, v.camera)
 
     def ply(self, mode: str) -> Path:
         """The PLY shown for ``mode`` (one of :data:`MODES`)."""
@@ -308,41 +340,109 @@ class ViewerSession:
         return cached[1]
 
     # --- the selection -------------------------------------------------------------------------------
+    @property
+    def plan(self) -> RemovalPlan | None:
+        """The selection's whole plan (:func:`plan_removal`'s: fill masks of every training view and
+        the selection check), waiting for its check when that is still running."""
+        self._checked.wait()
+        return self._plan
+
+    @plan.setter
+    def plan(self, plan: RemovalPlan | None) -> None:
+        self._generation += 1
+        self._plan, self.selection, self._masks = plan, None, {}
+        self._checked.set()
+
+    def checking(self) -> bool:
+        """Whether the current selection's check is still running."""
+        return not self._checked.is_set()
+
     def selected(self) -> np.ndarray | None:
         """(N,) bool over the field's Gaussians (the model's): what the removal takes, or None."""
-        return None if self.plan is None else self.plan.removal.removed_mask.numpy()
+        sel = self.selection if self.selection is not None else self._plan
+        return None if sel is None else sel.removal.removed_mask.numpy()
 
-    def click(self, click: Click) -> str:
+    def _plan_args(self) -> dict:
+        return {"cfg": self.cfg.removal, "backend": self.cfg.backend, "renders": self.renders}
+
+    def click(self, click: Click, *, wait: bool = True) -> str:
         """A click on a photo: select the object under it, or drop it when it is selected already.
         Returns the line the page shows; an :class:`InputError` (a click on empty space, on the
-        support) leaves the selection as it was and is returned as that line."""
+        support) leaves the selection as it was and is returned as that line.
+
+        The selection is :func:`plan_removal`'s with the clicks (what ``run --click`` with them
+        removes). Without ``wait``, this returns once the selected Gaussians and the clicked photo's
+        fill mask are known (what the page draws); the other views' fill masks and the selection
+        check follow in a background thread (:attr:`plan` waits for them, :attr:`on_checked` is
+        called when they are done)."""
         try:
             if self.field is None:  # no object field yet: kept as given, resolved once the run distilled it
                 self.clicks = [c for c in self.clicks if c != click] if click in self.clicks else [*self.clicks, click]
                 self.message = f"{len(self.clicks)} click(s); the object field does not exist yet: Run distils it and removes what they select"
                 return self.message
-            # the selection with the click added (one plan_removal: what run --click with these clicks removes)
-            plan = plan_removal(self.field, self.scene, clicks=[*self.clicks, click], cfg=self.cfg.removal, backend=self.cfg.backend)
-            picked = plan.picked[-1]
+            # what each click picks (independent of the other clicks); a click on a selected object drops it
+            for view in self._click_views([*self.clicks, click]):  # each view's id map rendered once (a click re-selects the earlier clicks too)
+                if view.name not in self._id_maps:
+                    self._id_maps[view.name] = click_id_map(self.field, view)
+            picked_all = select(self.field, self.scene, [*self.clicks, click], backend=self.cfg.backend, id_maps=self._id_maps)
+            picked = picked_all[-1]
             same = []
-            for c, p in zip(self.clicks, plan.picked[:-1]):
+            for c, p in zip(self.clicks, picked_all[:-1]):
                 if picked.object_id is not None and p.object_id == picked.object_id:
                     same.append(c)
                 elif picked.gaussians is not None and p.gaussians is not None and (p.gaussians & picked.gaussians).sum() > 0.5 * picked.gaussians.sum():
                     same.append(c)
-            clicks = [*self.clicks, click]
-            if same:  # a click on a selected object drops it
-                clicks = [c for c in self.clicks if c not in same]
-                plan = plan_removal(self.field, self.scene, clicks=clicks, cfg=self.cfg.removal, backend=self.cfg.backend) if clicks else None
+            clicks, chosen = [*self.clicks, click], picked_all
+            if same:
+                keep = [i for i, c in enumerate(self.clicks) if c not in same]
+                clicks, chosen = [self.clicks[i] for i in keep], [picked_all[i] for i in keep]
+            sel = select_removal(self.field, self.scene, clicks=clicks, picked=chosen, support=self.support(), **self._plan_args()) if clicks else None
+            masks = {}
+            if sel is not None and click.view is not None:
+                view = self.scene.view(click.view)
+                masks = fill_masks(self.field.gaussians, sel.removal.removed_mask, [view], self.cfg.removal.mask_share, self.cfg.backend, self.renders)
         except InputError as e:
             self.message = f"not selected: {e.args[0] if e.args else e}"
             return self.message
-        self.clicks, self.plan = clicks, plan
+        self.clicks = clicks
+        self.plan = None  # a new generation: an older selection's check is dropped
+        self.selection, self._masks = sel, masks
         what = f"dropped object {picked.object_id}" if same and picked.object_id is not None else "dropped" if same else f"selected ({picked.how})"
-        self.message = f"{what}; {self.verdict()}"
-        return self.message
+        if sel is not None:
+            self._checked.clear()
+        self.message = f"{what}; {self.verdict()}"  # before the check's thread can write its own
+        line = self.message
+        if sel is not None:
+            worker = threading.Thread(target=self._check, args=(self._generation, sel, dict(masks), what), name="inpaint360gs-check", daemon=True)
+            worker.start()
+            if wait:
+                self._checked.wait()
+                return self.message
+        return line
 
-    def click_ray(self, origin, direction) -> tuple[Click | None, str]:
+    def _click_views(self, clicks: list[Click]) -> list[View]:
+        """The views of ``clicks`` that select can read (a bad click is left to select to say so)."""
+        try:
+            return check_clicks(self.scene, clicks)
+        except InputError:
+            return []
+
+    def _check(self, gen: int, sel: Selected, masks: dict, what: str) -> None:
+        """The rest of the plan of ``sel`` (fill masks of the other views, the check), in the background."""
+        try:
+            plan = complete_plan(self.field, self.scene, sel, masks=masks, **self._plan_args())
+            error = None
+        except Exception as e:  # shown as the page's line; the selection stays drawn
+            plan, error = None, f"{type(e).__name__}: {e}"
+        if gen != self._generation:
+            return
+        self._plan, self.selection = plan, None if plan is not None else sel
+        self.message = f"{what}; {self._verdict(plan)}" if error is None else f"{what}; the selection check failed: {error}"
+        self._checked.set()
+        if self.on_checked is not None:
+            self.on_checked()
+
+    def click_ray(self, origin, direction, *, wait: bool = True) -> tuple[Click | None, str]:
         """A click on the splats, given as the page's ray: the pixel of the front surface the ray hits
         (:func:`ray_hit` on the object field's Gaussians, else the trained model's) in the training
         view looking along the ray (:func:`click_at_point`), then :meth:`click` with it, the photo
@@ -353,17 +453,22 @@ class ViewerSession:
         if c is None:
             self.message = "not selected: the click hits no splat seen by a training camera"
             return None, self.message
-        return c, self.click(c)
+        return c, self.click(c, wait=wait)
 
     def clear(self) -> None:
         """Select nothing."""
         self.clicks, self.plan, self.message = [], None, "nothing selected"
 
     def verdict(self) -> str:
-        """The selection check of the current selection in one line."""
-        if self.plan is None:
+        """The selection check of the current selection in one line (does not wait for it)."""
+        if self.checking():
+            return "checking the selection ..."
+        return self._verdict(self._plan)
+
+    def _verdict(self, plan: RemovalPlan | None) -> str:
+        if plan is None:
             return "nothing selected" if not self.clicks else "not checked yet (no object field)"
-        c = self.plan.check
+        c = plan.check
         return f"{'passed' if c.passed else 'refused'} ({c.verdict}): {c.reason}"
 
     def save_clicks(self) -> Path:
@@ -384,21 +489,40 @@ class ViewerSession:
     def photo(self, view: View) -> np.ndarray:
         """(H, W, 3) float photo of a training view with the selection's fill mask tinted and the
         clicks on it crossed (at the scene's resolution)."""
-        img = self.scene.load_image(view).numpy()
-        mask = self.plan.masks.get(view.name) if self.plan is not None else None
+        if view.name not in self._photos:
+            self._photos[view.name] = self.scene.load_image(view).numpy()
+        img = self._photos[view.name]
+        mask = self.mask(view)
         mask = np.zeros(img.shape[:2], bool) if mask is None else mask
         return selection_overlay(img, mask, [c.pixel(view) for c in self.clicks if self.scene.view(c.view).name == view.name])
 
+    def mask(self, view: View) -> np.ndarray | None:
+        """The current selection's fill mask in ``view`` (drawn now when its check has not yet), or None."""
+        plan = self._plan if not self.checking() else None
+        if plan is not None:
+            return plan.masks.get(view.name)
+        sel, masks = self.selection, self._masks
+        if sel is None or self.field is None:
+            return None
+        if view.name not in masks:
+            masks[view.name] = fill_masks(self.field.gaussians, sel.removal.removed_mask, [view], self.cfg.removal.mask_share, self.cfg.backend,
+                                          self.renders)[view.name]  # fmt: skip
+        return masks[view.name]
+
     def render(self, view: View, mode: str) -> np.ndarray | None:
-        """(H, W, 3) float render of ``mode``'s Gaussians at ``view``'s camera, or None."""
+        """(H, W, 3) float render of ``mode``'s Gaussians at ``view``'s camera, or None (kept per PLY version)."""
         from inpaint360gs.render.api import render
 
         g = self.gaussians(mode)
         if g is None:
             return None
-        with torch.no_grad():
-            out = render(g, view.camera, backend=self.cfg.backend)
-        return out.color.clamp(0, 1).numpy()
+        key = (view.name, mode, self._gaussians[mode][0])
+        if key not in self._renders:
+            with torch.no_grad():
+                out = render(g, view.camera, backend=self.cfg.backend)
+            self._renders = {k: v for k, v in self._renders.items() if k[1] != mode or k[2] == key[2]}  # drop renders of older files
+            self._renders[key] = out.color.clamp(0, 1).numpy()
+        return self._renders[key]
 
     def side_by_side(self, view: View, mode: str) -> np.ndarray:
         """uint8 photo (with the selection) | render of ``mode`` at that camera (black when not there yet)."""
@@ -434,7 +558,7 @@ class ViewerSession:
         self.reload_field()
         if self.field is not None and not had_field and self.clicks:
             try:
-                self.plan = plan_removal(self.field, self.scene, clicks=self.clicks, cfg=self.cfg.removal, backend=self.cfg.backend)
+                self.plan = plan_removal(self.field, self.scene, clicks=self.clicks, support=self.support(), **self._plan_args())
             except InputError as e:
                 self.message = f"the clicks select nothing in the field: {e}"
 
