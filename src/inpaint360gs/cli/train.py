@@ -49,6 +49,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=nonneg_int, default=d.seed)
     parser.add_argument("--sh-degree", type=nonneg_int, default=d.sh_degree, help="highest SH degree (default 3)")
     parser.add_argument("--random-background", action="store_true", help="a random background colour every step")
+    parser.add_argument(
+        "--support-init", action="store_true",
+        help="also start from points on the support plane where the SfM points leave the photos uncovered (plain supports; default off)",
+    )  # fmt: skip
     parser.add_argument("--white-background", action="store_true", help="render on white instead of black")
     parser.add_argument("--eval-every", type=nonneg_int, default=d.eval_every, help="held-out PSNR/SSIM into train_log.csv every N steps (0: end only)")
     parser.add_argument("--checkpoint-every", type=nonneg_int, default=d.checkpoint_every, help="steps between checkpoints (0: only at the end)")
@@ -75,6 +79,7 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
         sh_degree=args.sh_degree,
         background=(1.0, 1.0, 1.0) if args.white_background else (0.0, 0.0, 0.0),
         random_background=args.random_background,
+        support_init=args.support_init,
         schedule_scale=float(scale),
         checkpoint_every=args.checkpoint_every,
         eval_every=args.eval_every,

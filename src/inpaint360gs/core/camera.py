@@ -80,3 +80,35 @@ class Camera:
         R = torch.stack([x, y, z])  # rows: camera axes in world coordinates
         t = -R @ eye
         return Camera(R=R.float(), t=t.float(), fx=fx, fy=fy, cx=cx, cy=cy, width=width, height=height, name=name)
+
+
+def camera_up(cameras) -> "np.ndarray":
+    """World up from the cameras (a sequence of :class:`Camera`): −(mean of their image-down axes), normalised."""
+    import numpy as np
+
+    from inpaint360gs.core.errors import InputError
+
+    ys = np.stack([c.R.double().numpy()[1] for c in cameras])
+    up = -ys.mean(0)
+    n = np.linalg.norm(up)
+    if n < 1e-6:
+        raise InputError("the training cameras' up directions cancel out; cannot find the scene's up direction")
+    return up / n
+
+
+def nearest_point_to_axes(cameras) -> "np.ndarray":
+    """Least-squares point nearest every camera's optical axis (the orbit's look-at point)."""
+    import numpy as np
+
+    from inpaint360gs.core.errors import InputError
+
+    A = np.zeros((3, 3))
+    b = np.zeros(3)
+    for c in cameras:
+        d = c.R.double().numpy()[2]  # viewing direction in world coordinates
+        P = np.eye(3) - np.outer(d, d)
+        A += P
+        b += P @ c.center.double().numpy()
+    if np.linalg.cond(A) > 1e8:  # all axes parallel: no orbit
+        raise InputError("the training cameras' optical axes are (nearly) parallel; the geometric segmenter needs an orbit around the scene")
+    return np.linalg.solve(A, b)

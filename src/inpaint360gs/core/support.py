@@ -36,6 +36,33 @@ def fit_plane(points: np.ndarray, up: np.ndarray, *, trim: float = 0.8, rounds: 
     return n, d
 
 
+def plane_candidates(points: np.ndarray, up: np.ndarray, tries: int, max_tilt_deg: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """RANSAC's candidate planes: ``tries`` planes through three random ``points`` each; returns
+    (unit normals oriented with ``up`` (tries, 3), offsets (tries,), which are usable: not degenerate
+    and tilted at most ``max_tilt_deg`` from ``up``)."""
+    idx = rng.integers(0, len(points), size=(tries, 3))
+    a, b, c = points[idx[:, 0]], points[idx[:, 1]], points[idx[:, 2]]
+    n = np.cross(b - a, c - a)
+    norm = np.linalg.norm(n, axis=1)
+    ok = norm > 1e-12
+    n[ok] /= norm[ok, None]
+    n[n @ up < 0] *= -1
+    ok &= n @ up >= np.cos(np.radians(max_tilt_deg))
+    return n, np.einsum("ij,ij->i", n, a), ok
+
+
+def voxel_thin(points: np.ndarray, colors: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
+    """One point per occupied voxel: the mean position and colour of the points in it."""
+    keys = np.floor(points / voxel).astype(np.int64)
+    _, inv, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    inv = inv.reshape(-1)
+    p = np.zeros((len(counts), 3))
+    c = np.zeros((len(counts), 3))
+    np.add.at(p, inv, points)
+    np.add.at(c, inv, colors)
+    return p / counts[:, None], c / counts[:, None]
+
+
 def plane_basis(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Two orthonormal directions across ``normal`` (a fixed choice for a given normal)."""
     a = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])

@@ -70,6 +70,9 @@ class TrainConfig:
     sh_degree: int = 3  # final SH degree, 0..3
     sh_degree_interval: int = 1000  # steps
     init_opacity: float = 0.1  # initial opacity of every Gaussian, in (0, 1)
+    # Not in the original: also start from points on the support plane where the SfM points leave
+    # cells of the training photos uncovered (a plain sheet or table; gs/support_init.py)
+    support_init: bool = False
     # Adam learning rates per parameter; positions decay exponentially and scale with the scene extent
     means_lr_init: float = 1.6e-4  # x scene extent, at step 0
     means_lr_final: float = 1.6e-6  # x scene extent, at ``means_lr_max_steps``

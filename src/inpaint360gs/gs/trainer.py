@@ -62,10 +62,17 @@ class TrainResult:
 
 
 def init_gaussians(scene: Scene, cfg: TrainConfig) -> Gaussians:
-    """3DGS initialisation from the sparse points: isotropic 3-NN scales, opacity ``init_opacity``."""
+    """3DGS initialisation from the sparse points (with ``support_init``, also points on the support
+    where they leave the photos uncovered: :mod:`inpaint360gs.gs.support_init`): isotropic 3-NN
+    scales, opacity ``init_opacity``."""
     if scene.points.shape[0] == 0:
         raise InputError("the sparse model has no 3D points to initialise Gaussians from", scene.root / "sparse" / "0")
-    return Gaussians.from_points(scene.points, scene.point_colors, sh_degree=cfg.sh_degree, init_opacity=cfg.init_opacity)
+    points, colors = scene.points, scene.point_colors
+    if cfg.support_init:
+        from inpaint360gs.gs.support_init import with_support_points
+
+        points, colors, _ = with_support_points(scene)
+    return Gaussians.from_points(points, colors, sh_degree=cfg.sh_degree, init_opacity=cfg.init_opacity)
 
 
 def peak_rss_mb() -> float:

@@ -26,6 +26,7 @@ import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.support import voxel_thin
 from inpaint360gs.inpaint.conditioned import InpaintedView
 from inpaint360gs.views.unseen import backproject
 
@@ -46,18 +47,6 @@ def fused_points(views: Sequence[InpaintedView]) -> tuple[np.ndarray, np.ndarray
     if not pts:
         raise InputError("no view has pixels to fill: the unseen masks are empty (nothing to initialise)")
     return np.concatenate(pts), np.concatenate(cols), float(np.median(foot))
-
-
-def voxel_thin(points: np.ndarray, colors: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray]:
-    """One point per occupied voxel: the mean position and colour of the points in it."""
-    keys = np.floor(points / voxel).astype(np.int64)
-    _, inv, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    inv = inv.reshape(-1)
-    p = np.zeros((len(counts), 3))
-    c = np.zeros((len(counts), 3))
-    np.add.at(p, inv, points)
-    np.add.at(c, inv, colors)
-    return p / counts[:, None], c / counts[:, None]
 
 
 def remove_outliers(points: np.ndarray, k: int = 8, n_std: float = 2.5) -> np.ndarray:

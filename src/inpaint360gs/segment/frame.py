@@ -24,8 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.camera import Camera, camera_up, nearest_point_to_axes
 from inpaint360gs.core.errors import InputError
+from inpaint360gs.core.support import plane_candidates
 
 
 @dataclass(frozen=True)
@@ -58,30 +59,6 @@ class SceneFrame:
         }
 
 
-def camera_up(cameras: Sequence[Camera]) -> np.ndarray:
-    """World up from the cameras: −(mean of their image-down axes), normalised."""
-    ys = np.stack([c.R.double().numpy()[1] for c in cameras])
-    up = -ys.mean(0)
-    n = np.linalg.norm(up)
-    if n < 1e-6:
-        raise InputError("the training cameras' up directions cancel out; cannot find the scene's up direction")
-    return up / n
-
-
-def nearest_point_to_axes(cameras: Sequence[Camera]) -> np.ndarray:
-    """Least-squares point nearest every camera's optical axis (the orbit's look-at point)."""
-    A = np.zeros((3, 3))
-    b = np.zeros(3)
-    for c in cameras:
-        d = c.R.double().numpy()[2]  # viewing direction in world coordinates
-        P = np.eye(3) - np.outer(d, d)
-        A += P
-        b += P @ c.center.double().numpy()
-    if np.linalg.cond(A) > 1e8:  # all axes parallel: no orbit
-        raise InputError("the training cameras' optical axes are (nearly) parallel; the geometric segmenter needs an orbit around the scene")
-    return np.linalg.solve(A, b)
-
-
 def _fit_plane(points: np.ndarray) -> tuple[np.ndarray, float]:
     """Least-squares plane (unit normal n, offset d with n.x = d) through ``points``."""
     c = points.mean(0)
@@ -103,15 +80,7 @@ def ground_plane(
     """RANSAC plane (normal, offset, inlier count) over ``points`` (see the module docstring)."""
     if len(points) < 3:
         raise InputError(f"only {len(points)} opaque Gaussians: too few to find the ground plane")
-    idx = rng.integers(0, len(points), size=(tries, 3))
-    a, b, c = points[idx[:, 0]], points[idx[:, 1]], points[idx[:, 2]]
-    n = np.cross(b - a, c - a)
-    norm = np.linalg.norm(n, axis=1)
-    ok = norm > 1e-12
-    n[ok] /= norm[ok, None]
-    n[n @ up < 0] *= -1
-    ok &= n @ up >= np.cos(np.radians(max_tilt_deg))
-    d = np.einsum("ij,ij->i", n, a)
+    n, d, ok = plane_candidates(points, up, tries, max_tilt_deg, rng)
     # the cameras look down at the support: their median height above a candidate must be positive
     ok &= np.median(camera_centers @ n.T - d, axis=0) > 0
     best, best_count = -1, 0

@@ -1,0 +1,197 @@
+"""Initial points on the support where structure from motion found none.
+
+3DGS starts from the SfM points (Kerbl et al. 2023, Sec. 4) and relies on densification to fill
+what they miss; densification follows the photometric gradient, and a plain surface (a sheet, white
+paper, a bare table) gives almost none, so a capture whose support is plain keeps a few large,
+misplaced Gaussians there: right in the training views, wrong from any other angle (held-out
+views, the inpainting's virtual views and support view, Sec. 3.4). 3DGS's own answers to missing
+points are a random initialisation in the scene's box (its synthetic scenes) and a background
+sphere; this project's captures are objects on a support that the cameras circle, so the missing
+points have a known place: the support plane.
+
+For every training view, the image is divided into cells; a cell into which no SfM point projects
+(within one cell) is uncovered. Its centre ray meets the support plane (:func:`support_plane`: the
+lowest well-supported plane across the cameras' up direction among the SfM points near the orbit's
+axis; the largest plane may be something standing on it, a ring of texture around a toy); the hit becomes a
+point coloured by the cell's pixels when it lies within the cameras' orbit around the look-at point
+and no nearby SfM point standing above the plane lies clearly in front of it in that view (then
+the cell shows something standing on the support, not the support). The points of all views are merged on a grid of the
+cells' size on the plane, so overlapping views give one point per place.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from inpaint360gs.core.camera import Camera
+from inpaint360gs.core.support import plane_basis, plane_candidates, voxel_thin
+
+
+@dataclass(frozen=True)
+class SupportInit:
+    """Settings of the support points (module docstring)."""
+
+    cell_px: int = 8  # cell side in pixels (at the training resolution)
+    reach: float = 1.0  # keep hits within this x the orbit radius of the look-at point, along the plane
+    plane_reach: float = 1.5  # the plane is fitted to the SfM points within this x the orbit radius of the orbit's axis
+    plane_tol: float = 0.005  # inlier distance, x the median camera distance from the look-at point
+    plane_share: float = 0.25  # a candidate plane needs at least this share of the best candidate's inliers
+    plane_tries: int = 2000  # RANSAC samples
+    front_margin: float = 0.05  # a standing SfM point nearer than (1 - this) x the plane hit's depth hides it ...
+    stand: float = 0.02  # ... standing: higher above the plane than this x the median camera distance
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """Where the cameras stand: the world up, the point their axes pass nearest, the median horizontal
+    and 3D camera distances from it."""
+
+    up: np.ndarray
+    look_at: np.ndarray
+    radius: float
+    camera_distance: float
+
+
+def orbit_of(cameras: Sequence[Camera]) -> Orbit:
+    """The :class:`Orbit` of ``cameras`` (as the geometric segmenter's scene frame measures it)."""
+    from inpaint360gs.core.camera import camera_up, nearest_point_to_axes
+
+    up, look = camera_up(cameras), nearest_point_to_axes(cameras)
+    rel = np.stack([c.center.double().numpy() for c in cameras]) - look
+    return Orbit(up, look, float(np.median(np.linalg.norm(rel - np.outer(rel @ up, up), axis=1))), float(np.median(np.linalg.norm(rel, axis=1))))
+
+
+def support_plane(points: np.ndarray, frame: Orbit, cfg: SupportInit, rng: np.random.Generator) -> tuple[np.ndarray, float] | None:
+    """(normal, offset) of the support: among RANSAC planes through the SfM ``points`` within
+    ``plane_reach`` x the orbit radius of the orbit's axis (``frame``), tilted at most 30° from up and below the look-at point, those with at least
+    ``plane_share`` of the best one's inliers; the lowest of them at the look-at point, refitted
+    to its inliers. None when there is no such plane."""
+    up, look = frame.up, frame.look_at
+    rel = points - look
+    horiz = np.linalg.norm(rel - np.outer(rel @ up, up), axis=1)
+    pts = points[horiz <= cfg.plane_reach * frame.radius]
+    if len(pts) < 3:
+        return None
+    tol = cfg.plane_tol * frame.camera_distance
+    n, d, ok = plane_candidates(pts, up, cfg.plane_tries, 30.0, rng)
+    ok &= n @ look - d > 0
+    sel = np.flatnonzero(ok)
+    if not len(sel):
+        return None
+    counts = np.concatenate([(np.abs(pts @ n[sel[i : i + 200]].T - d[sel[i : i + 200]]) <= tol).sum(0) for i in range(0, len(sel), 200)])
+    good = sel[counts >= max(3, cfg.plane_share * counts.max())]
+    k = good[np.argmax(n[good] @ look - d[good])]  # the lowest: farthest below the look-at point
+    normal, offset = n[k], float(d[k])
+    for _ in range(2):
+        inl = np.abs(pts @ normal - offset) <= tol
+        if inl.sum() < 3:
+            break
+        cen = pts[inl].mean(0)
+        _, _, vt = np.linalg.svd(pts[inl] - cen, full_matrices=False)
+        normal = vt[2] if vt[2] @ up >= 0 else -vt[2]
+        offset = float(normal @ cen)
+    return normal, offset
+
+
+def support_points(
+    cameras: Sequence[Camera],
+    images: Sequence[np.ndarray],
+    points: np.ndarray,
+    cfg: SupportInit | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(xyz (M, 3), rgb (M, 3) in [0, 1]) on the support plane where the SfM ``points`` (P, 3) leave
+    cells of the training ``cameras``' ``images`` ((H, W, 3) floats in [0, 1], one per camera)
+    uncovered. Empty arrays when the plane cannot be fitted (fewer than three points, no plane)."""
+    from inpaint360gs.core.errors import InputError
+
+    cfg = cfg or SupportInit()
+    empty = (np.zeros((0, 3)), np.zeros((0, 3)))
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(pts) < 3 or len(cameras) < 2:
+        return empty
+    try:
+        frame = orbit_of(list(cameras))
+    except InputError:
+        return empty
+    if not frame.radius > 0:
+        return empty
+    plane = support_plane(pts, frame, cfg, np.random.default_rng(0))
+    if plane is None:
+        return empty
+    n, d = plane
+    standing = pts @ n - d > cfg.stand * frame.camera_distance
+    look = frame.look_at - (frame.look_at @ n - d) * n  # the look-at point dropped onto the plane
+    xyz, rgb, size = [], [], []
+    c = int(cfg.cell_px)
+    for cam, img in zip(cameras, images):
+        R, t = cam.R.double().numpy(), cam.t.double().numpy()
+        W, H = cam.width, cam.height
+        gw, gh = -(-W // c), -(-H // c)
+        # SfM points in this view: covered cells (grown by one cell) and the nearest depth per cell
+        pc = pts @ R.T + t
+        z = pc[:, 2]
+        ok = z > 1e-9
+        u = cam.fx * pc[ok, 0] / z[ok] + cam.cx
+        v = cam.fy * pc[ok, 1] / z[ok] + cam.cy
+        inside = (u >= 0) & (u < W) & (v >= 0) & (v < H)
+        cu, cv, cz = (u[inside] // c).astype(int), (v[inside] // c).astype(int), z[ok][inside]
+        up_ = standing[ok][inside]
+        near = np.full((gh + 2, gw + 2), np.inf)  # per cell, padded by one: the nearest SfM depth within one cell
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                np.minimum.at(near, (cv + 1 + dy, cu + 1 + dx), cz)
+        near = near[1:-1, 1:-1]
+        ii, jj = np.divmod(np.arange(gh * gw), gw)  # every cell (row, column); the uncovered ones are kept below
+        # the cell centres' rays and their hits on the plane
+        px, py = (jj + 0.5) * c, (ii + 0.5) * c
+        px, py = np.minimum(px, W - 0.5), np.minimum(py, H - 0.5)
+        dirs_cam = np.stack([(px - cam.cx) / cam.fx, (py - cam.cy) / cam.fy, np.ones_like(px)], -1)
+        dirs = dirs_cam @ R  # world directions (R^T d), z-depth 1 per unit
+        o = cam.center.double().numpy()
+        denom = dirs @ n
+        with np.errstate(divide="ignore", invalid="ignore"):
+            depth = (d - o @ n) / denom  # camera z of the hit
+        hit = o + depth[:, None] * dirs
+        along = np.linalg.norm((hit - look) - np.outer((hit - look) @ n, n), axis=1)
+        keep = np.isfinite(depth) & (depth > 0) & (along <= cfg.reach * frame.radius)
+        nd = near[ii, jj]
+        keep &= ~np.isfinite(nd)  # uncovered: no SfM point within one cell
+        if not keep.any():
+            continue
+        # no standing SfM point two cells around lies clearly in front of the hit (the cell then shows what stands on the support)
+        front = np.full((gh + 4, gw + 4), np.inf)
+        for dy in range(-2, 3):
+            for dx in range(-2, 3):
+                np.minimum.at(front, (cv[up_] + 2 + dy, cu[up_] + 2 + dx), cz[up_])
+        keep &= ~(front[ii + 2, jj + 2] < (1.0 - cfg.front_margin) * depth)
+        im = np.asarray(img, dtype=np.float64)
+        for k in np.nonzero(keep)[0]:
+            y0, x0 = ii[k] * c, jj[k] * c
+            rgb.append(im[y0 : y0 + c, x0 : x0 + c].reshape(-1, 3).mean(0))
+        xyz.append(hit[keep])
+        size.append(depth[keep] * c / cam.fx)  # the cell's footprint on the plane (at normal incidence)
+    if not xyz:
+        return empty
+    xyz, rgb, size = np.concatenate(xyz), np.asarray(rgb), np.concatenate(size)
+    # one point per cell-sized square of the plane: the mean of the hits that fall in it
+    step = float(np.median(size))
+    basis = np.stack([*plane_basis(n), n])  # plane coordinates, the height half a step up: one layer of voxels
+    local = (xyz - look) @ basis.T + [0.0, 0.0, 0.5 * step]
+    local, rgb = voxel_thin(local, rgb, step)
+    return (local - [0.0, 0.0, 0.5 * step]) @ basis + look, np.clip(rgb, 0.0, 1.0)
+
+
+def with_support_points(scene, cfg: SupportInit | None = None) -> tuple[torch.Tensor, torch.Tensor, int]:
+    """The scene's SfM points and colours with :func:`support_points` appended, and how many were added."""
+    views = list(scene.train_views)
+    images = [scene.load_image(v).numpy() for v in views]
+    xyz, rgb = support_points([v.camera for v in views], images, scene.points.double().numpy(), cfg)
+    if not len(xyz):
+        return scene.points, scene.point_colors, 0
+    pts = torch.cat([scene.points.float(), torch.from_numpy(xyz).float()])
+    cols = torch.cat([scene.point_colors.float(), torch.from_numpy(rgb).float()])
+    return pts, cols, len(xyz)
