@@ -12,6 +12,7 @@ failed (exit 4) keeps its folder for inspection and is scored all the same.
 
     inpaint360gs-dataset synth data/dev --scenes teapot-test2 dozer-test1 duck-dev1
     python benchmarks/bench_removal_seeds.py data/dev runs/dev --scenes teapot-test2 dozer-test1 duck-dev1 --seeds 0 1 2
+    python benchmarks/bench_removal_seeds.py data/dev runs/dev-support --scenes plush-dev1 --extra=--support-init
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from inpaint360gs.core.errors import EXIT_CHECK
 from inpaint360gs.metrics.removal import LIMIT_TEXT, LIMITS
 
 
-def run_one(scene: Path, out: Path, seed: int, threads: int) -> dict:
+def run_one(scene: Path, out: Path, seed: int, threads: int, extra: tuple[str, ...] = ()) -> dict:
     """One run to the removal and its scores; the record of the table's row."""
     scores_path = out.parent / f"{out.name}.removal_scores.json"  # beside the run folder: a run's OUT holds only its stages
     row_path = out.parent / f"{out.name}.row.json"
@@ -39,7 +40,7 @@ def run_one(scene: Path, out: Path, seed: int, threads: int) -> dict:
     out.parent.mkdir(parents=True, exist_ok=True)
     with open(out.parent / f"{out.name}.log", "w") as log:
         rc = subprocess.call([inp, "run", str(scene), str(out), "--until", "remove", "--seed", str(seed), "--threads", str(threads),
-                              "--no-progress"], stdout=log, stderr=subprocess.STDOUT)
+                              "--no-progress", *extra], stdout=log, stderr=subprocess.STDOUT)
     wall = time.perf_counter() - t0
     row = {"scene": scene.name, "seed": seed, "exit": rc, "run_s": round(wall, 1)}
     check = out / "check.json"
@@ -69,6 +70,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="+", required=True)
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--extra", default="", help="extra options for every `inpaint360gs run`, one string (e.g. --extra=--support-init; use another OUT)")
     a = ap.parse_args(argv)
     missing = [s for s in a.scenes if not (a.data / s / "scene.json").is_file()]
     if missing:
@@ -77,7 +79,7 @@ def main(argv=None) -> int:
     rows = []
     for name in a.scenes:
         for seed in a.seeds:
-            r = run_one(a.data / name, a.out / name / f"seed{seed}", seed, a.threads)
+            r = run_one(a.data / name, a.out / name / f"seed{seed}", seed, a.threads, tuple(a.extra.split()))
             rows.append(r)
             print(f"  {name} seed {seed}: exit {r['exit']}, residual {fmt(r.get('residual'))} %, collateral {fmt(r.get('collateral'))} %, "
                   f"{r.get('check', 'no check')} ({r['run_s']:.0f} s)", flush=True)
