@@ -54,6 +54,7 @@ def run_one(scene: Path, out: Path, seed: int, threads: int, extra: tuple[str, .
         if src == 0:
             s = json.loads(scores_path.read_text())
             row.update({k: s["scores"].get(k) for k in ("residual", "collateral", "amcr", "gt_footprint_share")})
+        row["over_removal"] = json.loads((out / "removed" / "removal.json").read_text()).get("over_removal", {}).get("ratio")
             row["above"] = [a["limit"] for a in s["above_limits"]]
     row_path.write_text(json.dumps(row, indent=1))
     return row
@@ -84,11 +85,11 @@ def main(argv=None) -> int:
             print(f"  {name} seed {seed}: exit {r['exit']}, residual {fmt(r.get('residual'))} %, collateral {fmt(r.get('collateral'))} %, "
                   f"{r.get('check', 'no check')} ({r['run_s']:.0f} s)", flush=True)
     print()
-    print("| scene | seed | exit | selection/removal check | residual % | collateral % | AMCR % | true footprint % |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| scene | seed | exit | selection/removal check | residual % | collateral % | AMCR % | true footprint % | over-removal |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(f"| {r['scene']} | {r['seed']} | {r['exit']} | {r.get('check', '—')} | {fmt(r.get('residual'))} | {fmt(r.get('collateral'))} "
-              f"| {fmt(r.get('amcr'))} | {fmt(r.get('gt_footprint_share'))} |")
+              f"| {fmt(r.get('amcr'))} | {fmt(r.get('gt_footprint_share'))} | {fmt(r.get('over_removal'))} |")
     print()
     print(f"Worst over seeds {a.seeds} (limits: {', '.join(LIMIT_TEXT[k] for k in ('residual', 'collateral'))}):")
     print("| scene | worst residual % | worst collateral % | runs whose check failed |")

@@ -450,6 +450,9 @@ def test_remove_stage_outputs(blobs, tmp_path):
     assert rec["scene"] == "s" and rec["objects"] == [3] and rec["clicks"] == [str(click)]  # the click and the id: one object
     assert rec["removed_gaussians"] == blob.sum() and rec["kept_gaussians"] == (~blob).sum()
     assert abs(rec["amcr_percent"] - np.mean(pct)) < 1e-6
+    # without a footprint column the removal is the object as it stands: its masks over the object's, exactly 1
+    over = rec["over_removal"]
+    assert over["ratio"] == 1.0 and over["removed_pixels"] == round(sum(pct) / 100 * m.size) == over["standing_pixels"]
     # same inputs, same bytes
     remove_stage(scene, field, tmp_path / "again", clicks=[click], ids=[3], cfg=cfg)
     for name in ["point_cloud.ply", "removed.ply", "removed_index.npy", *(f"masks/{w.stem}.png" for w in scene.train_views)]:
@@ -624,6 +627,9 @@ def test_footprint_column_takes_what_stands_on_the_object_s_footprint_and_the_co
     kept = res.kept
     _, standing = standing_share(kept.means.double().numpy(), kept.opacities.double().numpy(), object_footprint(box, np.ones(len(box)), floor, np.ones(len(floor)), up))
     assert standing == len(other)  # what stands there is the other object alone
+    # the object as it stands (what the removal's masks are measured against): the box, not the low parts nor any floor
+    st = res.standing_mask.numpy()
+    assert st[part == 3].mean() > 0.99 and not st[np.isin(part, [0, 1, 2, 4, 5, 6, 7])].any()
     # without the step the underside, the floor under the box and the floaters stay
     off = remove_objects(field, [3], RemovalConfig(hull=False, footprint_margin=None), up=up).removed_mask.numpy()
     assert not off[np.isin(part, [1, 4, 5])].any() and off[part == 2].any()

@@ -44,6 +44,10 @@ class Removal:
     objects: list[int]  # the selected object ids
     counts: dict = field(default_factory=dict)  # per object: by probability, by hull
     footprints: list = field(default_factory=list)  # per object: its core.support.Footprint (step 4), when found
+    # (N,) bool: what steps 1-2 took that stands higher than core.support.STANDING x the object's height over
+    # its footprint's plane (all of steps 1-2 without a footprint): the object as it stands, whose
+    # silhouette the removal's masks are compared with (remove/stage.py, "over_removal")
+    standing_mask: torch.Tensor | None = None
 
 
 def remove_objects(
@@ -118,8 +122,18 @@ def remove_objects(
         colours = (SH_C0 * field_.gaussians.sh0[:, 0].detach().cpu().double().numpy() + 0.5).clip(0.0, 1.0)
         share = silhouette_share(field_.gaussians, views, backend, renders=renders) if views else None
         remove, footprints = footprint_columns(means, opac, remove, bodies, kept_by_choice, up, cfg, counts, colours, share)
+    body = np.any(bodies, axis=0) if bodies else remove.copy()
+    if footprints:
+        from inpaint360gs.core.support import STANDING
+
+        standing = np.zeros_like(body)
+        for fp in footprints:
+            standing |= body & (fp.heights(means) > STANDING * fp.height)
+    else:
+        standing = body
     mask = torch.from_numpy(remove)
-    return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts, footprints)
+    return Removal(field_.gaussians.subset(~mask), field_.gaussians.subset(mask), mask, list(object_ids), counts, footprints,
+                   torch.from_numpy(standing))
 
 
 def silhouette_share(model: Gaussians, views: list[View], backend: str = "auto", grow_px: int = 2, renders: FeatureRenders | None = None):

@@ -127,6 +127,24 @@ def plan_removal(field_: IdentityField, scene: Scene, *, clicks: list[Click] | N
     return complete_plan(field_, scene, sel, cfg=cfg, backend=backend, renders=renders)
 
 
+def over_removal(field_: IdentityField, res, views, stack: np.ndarray, cfg: RemovalConfig, backend: str = "auto") -> dict:
+    """How much more the removal's masks cover than the object as it stands: the masks' pixels over
+    the pixels of the standing part of what the selection took (steps 1-2 of
+    :func:`.objects.remove_objects`, higher than a tenth of the object's height over its support; the
+    same mask rule), summed over the training views. Support taken beyond the object (large support
+    Gaussians in the footprint column, or support the field labelled as the object) shows as a
+    ratio well above 1; the footprint column's margin and contact rim, which are meant to go, add a
+    little. Recorded, not judged (docs/architecture.md, "A run checks itself")."""
+    from inpaint360gs.remove.objects import fill_masks
+
+    if res.standing_mask is None or not bool(res.standing_mask.any()):
+        return {"ratio": None, "note": "nothing of the selection stands above the support"}
+    standing = fill_masks(field_.gaussians, res.standing_mask, views, cfg.mask_share, backend)
+    px_standing = int(sum(int(standing[v.name].sum()) for v in views))
+    px_removed = int(stack.sum())
+    return {"ratio": px_removed / px_standing if px_standing else None, "removed_pixels": px_removed, "standing_pixels": px_standing}
+
+
 def remove_stage(
     scene: Scene,
     field_: IdentityField,
@@ -164,6 +182,7 @@ def remove_stage(
     picked, targets, res = plan.picked, plan.targets, plan.removal
     views, masks = scene.train_views, plan.masks
     stack = np.stack([masks[v.name] for v in views])
+    over = over_removal(field_, res, views, stack, cfg, backend)
     info = {
         **(meta or {}),
         "clicks": [str(c) for c in clicks],
@@ -174,6 +193,7 @@ def remove_stage(
         "counts": res.counts,
         "selection_check": plan.check.to_json(),
         "amcr_percent": amcr(stack),
+        "over_removal": over,
         "mask_rule": f"a pixel is to be filled when removed Gaussians gave at least {cfg.mask_share:g} of its colour in the original model",
         "config": asdict(cfg),
         "support": plan.support_note,
