@@ -54,8 +54,8 @@ def run_one(scene: Path, out: Path, seed: int, threads: int, extra: tuple[str, .
         if src == 0:
             s = json.loads(scores_path.read_text())
             row.update({k: s["scores"].get(k) for k in ("residual", "collateral", "amcr", "gt_footprint_share")})
-        row["over_removal"] = json.loads((out / "removed" / "removal.json").read_text()).get("over_removal", {}).get("ratio")
             row["above"] = [a["limit"] for a in s["above_limits"]]
+        row["over_removal"] = (json.loads((out / "removed" / "removal.json").read_text()).get("over_removal") or {}).get("ratio")
     row_path.write_text(json.dumps(row, indent=1))
     return row
 
