@@ -70,13 +70,6 @@ def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> Te
 
 
 OPAQUE_ABOVE_TOP = 0.5  # over the object's top only Gaussians at least this opaque count as standing (see standing_share)
-# A neighbour reaching into the column (see standing_share): standing bodies are the connected parts of a voxel grid of
-# this fraction of the object's height, over the Gaussians at least NEIGHBOUR_OPACITY opaque, looked for this many object
-# heights around the outline; a body with less than NEIGHBOUR_INSIDE of its opacity inside the column is a neighbour.
-NEIGHBOUR_VOXEL = 1.0 / 15.0
-NEIGHBOUR_OPACITY = 0.1
-NEIGHBOUR_REACH = 2.0
-NEIGHBOUR_INSIDE = 0.5
 
 
 def _column(means: np.ndarray, opacities: np.ndarray, footprint: Footprint) -> tuple[np.ndarray, np.ndarray]:
@@ -85,49 +78,6 @@ def _column(means: np.ndarray, opacities: np.ndarray, footprint: Footprint) -> t
     h = footprint.heights(means)
     col = footprint.inside(means) & (h > -footprint.height) & (h < 2.0 * footprint.height)
     return col & ((h <= footprint.height) | (opacities >= OPAQUE_ABOVE_TOP)), h
-
-
-def neighbours_reaching_in(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1) -> np.ndarray:
-    """Which Gaussians belong to a standing body that lies mostly outside the footprint column: a
-    neighbour that reaches into the outline's convex hull (a bread box beside a teapot whose spout
-    and handle span the gap), not a part of the object the removal missed (which lies inside).
-
-    Standing Gaussians (higher above the plane than ``height_frac`` x the object's height, at most
-    twice its height, at least :data:`NEIGHBOUR_OPACITY` opaque, within :data:`NEIGHBOUR_REACH` object
-    heights of the outline) are voxelised at :data:`NEIGHBOUR_VOXEL` x the height; each connected
-    body (26-neighbourhood, ``scipy.ndimage.label``) with less than :data:`NEIGHBOUR_INSIDE` of its
-    opacity inside the column is a neighbour. Returns an (N,) bool mask."""
-    from scipy import ndimage
-
-    from inpaint360gs.core.support import plane_coordinates
-
-    means = np.asarray(means, dtype=np.float64).reshape(-1, 3)
-    opacities = np.asarray(opacities, dtype=np.float64).reshape(-1)
-    out = np.zeros(len(means), dtype=bool)
-    H = float(footprint.height)
-    if not H > 0 or len(footprint.outline) < 3:
-        return out
-    h = footprint.heights(means)
-    uv = plane_coordinates(means, footprint.normal)
-    lo = footprint.outline.min(0) - NEIGHBOUR_REACH * H
-    hi = footprint.outline.max(0) + NEIGHBOUR_REACH * H
-    near = (h > height_frac * H) & (h < 2.0 * H) & (opacities >= NEIGHBOUR_OPACITY) & np.all((uv >= lo) & (uv <= hi), axis=1)
-    idx = np.nonzero(near)[0]
-    if not len(idx):
-        return out
-    voxel = NEIGHBOUR_VOXEL * H
-    cells = np.floor(np.c_[uv[idx] - lo, h[idx, None]] / voxel).astype(np.int64)
-    grid = np.zeros(cells.max(0) + 1, dtype=bool)
-    grid[tuple(cells.T)] = True
-    labels, n = ndimage.label(grid, structure=np.ones((3, 3, 3), dtype=bool))
-    body = labels[tuple(cells.T)]  # 1..n
-    w = opacities[idx]
-    inside = footprint.inside(means[idx])
-    total = np.bincount(body, weights=w, minlength=n + 1)
-    within = np.bincount(body, weights=w * inside, minlength=n + 1)
-    neighbour = within < NEIGHBOUR_INSIDE * np.maximum(total, 1e-300)
-    out[idx] = neighbour[body]
-    return out
 
 
 def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1,
@@ -143,15 +93,9 @@ def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprin
     :data:`OPAQUE_ABOVE_TOP` are not counted. The band over the top catches a part of the object the removal missed
     (the footprint then measures only the removed part), an opaque surface; the faint Gaussians over
     a removed object are the room's floaters, which the removal leaves by design (outside the
-    object's silhouette, docs/architecture.md "The footprint column").
-
-    Given ``reference`` (the model after a removal), a neighbour that reaches into the column
-    (:func:`neighbours_reaching_in`: a standing body mostly outside it) is not counted: it stood
-    there before and stays by design. Without a reference (the object itself) everything counts."""
+    object's silhouette, docs/architecture.md "The footprint column")."""
     opacities = np.asarray(opacities).reshape(-1)
     col, h = _column(means, opacities, footprint)
-    if reference is not None:
-        col &= ~neighbours_reaching_in(means, opacities, footprint, height_frac)
     w = opacities[col].astype(np.float64)
     up = h[col] > height_frac * footprint.height
     total = reference if reference is not None else w.sum()
