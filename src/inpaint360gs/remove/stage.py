@@ -127,7 +127,8 @@ def plan_removal(field_: IdentityField, scene: Scene, *, clicks: list[Click] | N
     return complete_plan(field_, scene, sel, cfg=cfg, backend=backend, renders=renders)
 
 
-def over_removal(field_: IdentityField, res, views, stack: np.ndarray, cfg: RemovalConfig, backend: str = "auto") -> dict:
+def over_removal(field_: IdentityField, res, views, stack: np.ndarray, cfg: RemovalConfig, backend: str = "auto",
+                 renders: FeatureRenders | None = None) -> dict:  # fmt: skip
     """How much more the removal's masks cover than the object as it stands: the masks' pixels over
     the pixels of the standing part of what the selection took (steps 1-2 of
     :func:`.objects.remove_objects`, higher than a tenth of the object's height over its support; the
@@ -139,7 +140,7 @@ def over_removal(field_: IdentityField, res, views, stack: np.ndarray, cfg: Remo
 
     if res.standing_mask is None or not bool(res.standing_mask.any()):
         return {"ratio": None, "note": "nothing of the selection stands above the support"}
-    standing = fill_masks(field_.gaussians, res.standing_mask, views, cfg.mask_share, backend)
+    standing = fill_masks(field_.gaussians, res.standing_mask, views, cfg.mask_share, backend, renders)
     px_standing = int(sum(int(standing[v.name].sum()) for v in views))
     px_removed = int(stack.sum())
     return {"ratio": px_removed / px_standing if px_standing else None, "removed_pixels": px_removed, "standing_pixels": px_standing}
@@ -178,11 +179,12 @@ def remove_stage(
     check_output_dir(out, overwrite)  # before any work
     t0 = time.perf_counter()
     clicks = list(clicks or [])
-    plan = plan_removal(field_, scene, clicks=clicks, ids=ids, cfg=cfg, backend=backend)
+    renders = FeatureRenders(field_.gaussians, backend)  # each view projected once: the plan's masks and over_removal's
+    plan = plan_removal(field_, scene, clicks=clicks, ids=ids, cfg=cfg, backend=backend, renders=renders)
     picked, targets, res = plan.picked, plan.targets, plan.removal
     views, masks = scene.train_views, plan.masks
     stack = np.stack([masks[v.name] for v in views])
-    over = over_removal(field_, res, views, stack, cfg, backend)
+    over = over_removal(field_, res, views, stack, cfg, backend, renders)
     info = {
         **(meta or {}),
         "clicks": [str(c) for c in clicks],
