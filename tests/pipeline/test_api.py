@@ -131,9 +131,10 @@ def test_the_workflow_trains_with_the_cpu_preset(tmp_path):
 def test_the_readme_example_runs(tmp_path, monkeypatch):
     """The README's Python example, as written, on the scene its shell example generates (reduced
     cone), under the cpu preset shrunk to a CI budget (3DGS 1000 steps, distillation 400, 3D
-    inpainting 50 steps on 4 virtual views): it removes the cone, reports every stage and passes its
+    inpainting 200 steps on 4 virtual views): it removes the cone, reports every stage and passes its
     own check (with 100 distillation steps the field takes the floor with the cone, and the check
-    refuses that result)."""
+    refuses that result; with 50 inpainting steps the fill stayed smoother than the ring, 0.68-0.70x
+    its |Laplacian| on an AMD EPYC, at the check's limit)."""
     import re
 
     from dataset_tools.cli import main as dataset_main
@@ -145,7 +146,7 @@ def test_the_readme_example_runs(tmp_path, monkeypatch):
     for name, cfg in presets.PRESETS.items():
         cfg = presets.with_budget(cfg, iterations=1000)
         inp = cfg.inpaint
-        inp = dataclasses.replace(inp, refine=dataclasses.replace(inp.refine, iterations=50), virtual=dataclasses.replace(inp.virtual, num_views=4))
+        inp = dataclasses.replace(inp, refine=dataclasses.replace(inp.refine, iterations=200), virtual=dataclasses.replace(inp.virtual, num_views=4))
         ci[name] = dataclasses.replace(cfg, distill=dataclasses.replace(cfg.distill, iterations=400), inpaint=inp)
     monkeypatch.setattr(presets, "PRESETS", ci)
     monkeypatch.chdir(tmp_path)
