@@ -669,3 +669,80 @@ def test_footprint_column_tells_a_flat_part_of_the_object_from_support_taken_for
     alike = remove_objects(field, [3], RemovalConfig(hull=False), up=up)
     assert not alike.removed_mask.numpy()[part == 3].all()
     assert abs(alike.footprints[0].size - 0.5) < 0.02  # and the footprint is the box's alone
+
+
+def test_footprint_column_keeps_the_support_the_views_see_under_the_plane_and_takes_the_dark_underside():
+    """A plain sheet gives 3DGS no depth: part of it lies below the support plane, under the object
+    and around it. Under the plane in the column, what the views see beside the object's silhouette
+    in the sheet's colours is the sheet placed too deep and stays; the dark underside goes, and so
+    does sheet-coloured stuff inside the silhouette in the views (only the hole shows it). Without a
+    silhouette test (no views), everything under the plane goes."""
+    from inpaint360gs.remove.geometry import footprint_columns
+
+    rng = np.random.default_rng(8)
+    g = np.linspace(-1.0, 1.0, 81)
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    floor = floor[(np.abs(floor[:, 0]) > 0.3) | (np.abs(floor[:, 1]) > 0.3)]
+    box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
+    deep_seen = np.c_[rng.uniform(0.15, 0.25, (40, 1)), rng.uniform(-0.25, 0.25, (40, 1)), rng.uniform(-0.15, -0.04, 40)]
+    deep_hidden = np.c_[rng.uniform(-0.1, 0.1, (40, 2)), rng.uniform(-0.15, -0.04, 40)]
+    deep_dark = np.c_[rng.uniform(0.15, 0.22, (40, 1)), rng.uniform(-0.22, 0.22, (40, 1)), rng.uniform(-0.15, -0.04, 40)]
+    means = np.concatenate([floor, box, deep_seen, deep_hidden, deep_dark])
+    part = np.repeat([0, 1, 2, 3, 4], [len(floor), len(box), 40, 40, 40])
+    colours = np.clip(0.85 + rng.normal(0, 0.02, (len(means), 3)), 0, 1)  # an off-white sheet
+    colours[part == 1] = (0.3, 0.2, 0.1)
+    colours[np.isin(part, [2, 3])] = 0.85 + rng.normal(0, 0.003, (80, 3))  # the sheet's colour
+    colours[part == 4] = (0.1, 0.08, 0.07)
+    body = part == 1
+
+    def share(indices, body_):  # the views see the deep Gaussians near the box's side beside it, those under its middle in it
+        return np.where(np.isin(part[indices], [2, 4]), 0.2, 1.0)
+
+    up = np.array([0.0, 0.0, 1.0])
+    opac = np.full(len(means), 0.9)
+    counts = {}
+    out, _ = footprint_columns(means, opac, body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), counts, colours, share)
+    assert out[np.isin(part, [1, 3, 4])].all()  # the box, the sheet only the hole shows, the dark underside
+    assert not out[part == 2].any() and not out[part == 0].any()
+    assert counts["footprint"][0]["support_beside_under_plane"] == 40
+    out, _ = footprint_columns(means, opac, body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours)
+    assert out[np.isin(part, [1, 2, 3, 4])].all()
+
+def test_footprint_column_keeps_the_support_the_views_see_beside_the_object():
+    """A box with a spout reaching over the floor: the outline on the plane covers floor under the
+    spout that the photos see beside the object. On the plane, a Gaussian the selection did not
+    take stays when the views see it off the object's silhouette and it has the floor's colours;
+    the floor under the box (in the silhouette in every view) and a dark print beside it go."""
+    from inpaint360gs.core.gaussians import SH_C0
+    from inpaint360gs.remove.geometry import footprint_columns
+
+    rng = np.random.default_rng(9)
+    g = np.linspace(-1.0, 1.0, 81)
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
+    spout = np.c_[rng.uniform(0.25, 0.45, (80, 1)), rng.uniform(-0.05, 0.05, (80, 1)), rng.uniform(0.25, 0.3, 80)]
+    means = np.concatenate([floor, box, spout])
+    part = np.repeat([0, 1, 2], [len(floor), len(box), len(spout)])
+    under_spout = (part == 0) & (means[:, 0] > 0.3) & (means[:, 0] < 0.45) & (np.abs(means[:, 1]) < 0.05)
+    under_box = (part == 0) & (np.abs(means[:, 0]) < 0.24) & (np.abs(means[:, 1]) < 0.24)
+    print_ = under_spout & (means[:, 0] < 0.35)  # a dark print beside the box, under the spout's root
+    colours = np.clip(0.6 + rng.normal(0, 0.03, (len(means), 3)), 0, 1)
+    colours[part > 0] = (0.9, 0.9, 0.95)
+    colours[print_] = (0.15, 0.12, 0.1)
+    colours[under_spout & ~print_] = 0.6 + rng.normal(0, 0.005, (int((under_spout & ~print_).sum()), 3))  # the floor's colour (the colour test leaves out its tenth farthest from the rest)
+    body = part > 0
+
+    def share(indices, body_):  # the views see the floor under the spout beside the silhouette, the floor under the box in it
+        return np.where(under_spout[indices], 0.2, 1.0)
+
+    up = np.array([0.0, 0.0, 1.0])
+    counts = {}
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), counts, colours, share)
+    assert out[body].all() and out[under_box].all() and out[print_].all()
+    assert not out[under_spout & ~print_].any()
+    assert counts["footprint"][0]["support_beside"] == int((under_spout & ~print_).sum())
+    # without the silhouette test the column takes the floor under the spout
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours)
+    assert out[under_spout].all()

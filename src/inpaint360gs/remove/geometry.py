@@ -121,8 +121,9 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
     ``silhouette_share(indices, body) -> (M,)``: the share of the training views showing each
     Gaussian in which its centre lies in the silhouette of ``body``; given, a Gaussian of the column
     higher than the object goes only when that share reaches ``cfg.column_silhouette`` (None: the
-    whole column to its top). Returns the new flags and the footprints found; ``counts`` records
-    what the step did (or why it did not)."""
+    whole column to its top; on the plane, a Gaussian the selection did not take stays when its
+    share is below it and it has the support's colours). Returns the new flags and the footprints
+    found; ``counts`` records what the step did (or why it did not)."""
     from inpaint360gs.core.support import STANDING, object_footprint
 
     remove = remove.copy()
@@ -142,18 +143,39 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         # front of the object; one whose centre lies off its silhouette is the background's (a floater
         # that colours the room or the table beyond the footprint in the other views): it stays
         high = np.flatnonzero(column & ~remove & (h > fp.height))
-        dropped = 0
-        if silhouette_share is not None and cfg.column_silhouette is not None and len(high):
-            off = silhouette_share(high, body) < cfg.column_silhouette
-            column[high[off]] = False
-            dropped = int(off.sum())
         low = np.abs(h) <= cfg.support_band * fp.height
+        # on the plane and under it, the same test tells the support the views see beside the object
+        # (under a spout, a handle, a belly: the outline on the plane is wider than what hides the
+        # support; a plain support's Gaussians placed under the plane) from what is under it, which
+        # no view sees but through the hole (below)
+        flat = np.flatnonzero((remove | column) & ((~body & low) | (h < -cfg.support_band * fp.height)))
+        dropped = 0
+        beside = np.zeros_like(remove)
+        if silhouette_share is not None and cfg.column_silhouette is not None and len(high) + len(flat):
+            off = silhouette_share(np.concatenate([high, flat]), body) < cfg.column_silhouette
+            column[high[off[: len(high)]]] = False
+            beside[flat[off[len(high) :]]] = True
+            dropped = int(off[: len(high)].sum())
         support = remove & body & (d > cfg.support_reach * fp.size) & low
-        ring = ~remove & low & (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
+        # the support's own Gaussians around the footprint, at whatever depth the column reaches
+        # (a plain support gives 3DGS no depth: its Gaussians spread below the plane)
+        ring = ~remove & ~column & (h > -cfg.footprint_depth * fp.height) & (h <= cfg.support_band * fp.height)
+        ring &= (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
         if colours is not None and support.any():
             support[support] = support_coloured(colours[support], colours[ring])
+        # What the views see beside the object's silhouette, on the support plane (not taken by the
+        # selection: its own low parts go, as above) or under it (a plain sheet or table top gives
+        # 3DGS no depth, and part of it lies under the plane), is the support when it has the
+        # support's colours: it stays. The dark underside, contact shadow and print go.
+        seen = beside.copy()
+        if colours is not None and seen.any():
+            seen[seen] = support_coloured_nearby(means[seen], colours[seen], means[ring], colours[ring])
+        else:
+            seen[:] = False
+        support |= seen
         counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size,
-                                                   "above_off_silhouette": dropped})  # fmt: skip
+                                                   "above_off_silhouette": dropped,
+                                                   "support_beside": int(seen.sum()), "support_beside_under_plane": int((seen & (h < -cfg.support_band * fp.height)).sum())})  # fmt: skip
         remove = (remove | column) & ~support
         # The object's own low parts (a flat base, a rim lying on the support: below the outline's
         # standing share, not in the support's colours) covered support that is now empty: the
@@ -182,3 +204,23 @@ def support_coloured(candidates: np.ndarray, ring: np.ndarray, k: int = 8, quant
     tree = cKDTree(ring)
     own = tree.query(ring, k=k + 1)[0][:, 1:].mean(axis=1)
     return tree.query(candidates, k=k)[0].mean(axis=1) <= np.quantile(own, quantile)
+
+
+def support_coloured_nearby(positions: np.ndarray, candidates: np.ndarray, ring_positions: np.ndarray, ring: np.ndarray,
+                            k: int = 8, quantile: float = 0.9) -> np.ndarray:  # fmt: skip
+    """(M,) bool: which ``candidates`` (M, 3) colours at ``positions`` (M, 3) hold the colours of the
+    support next to them: a candidate's colour distance to the median colour of its ``k`` nearest
+    ``ring`` Gaussians in space (``ring_positions`` (R, 3), colours ``ring`` (R, 3)) is within the
+    ``quantile`` of the same distance among the ring's Gaussians (each without itself). A support of
+    several colours (two mats, a mat's stripes, wood) makes :func:`support_coloured` hold a shadow
+    on one in the colours of another; here each is compared with the support around it. Fewer than
+    2k ring Gaussians: every candidate counts."""
+    from scipy.spatial import cKDTree
+
+    if len(ring) < 2 * k:
+        return np.ones(len(candidates), dtype=bool)
+    tree = cKDTree(ring_positions)
+    own_idx = tree.query(ring_positions, k=k + 1)[1][:, 1:]
+    own = np.linalg.norm(ring - np.median(ring[own_idx], axis=1), axis=1)
+    idx = tree.query(positions, k=k)[1]
+    return np.linalg.norm(candidates - np.median(ring[idx], axis=1), axis=1) <= np.quantile(own, quantile)

@@ -13,7 +13,8 @@ Steps, each with its :class:`~.config.RemovalConfig` switch:
    floor that the 2D masks lose to it, grown down a 45-degree cone, into the floor's guard band
    only through upright Gaussians;
 4. every Gaussian in the footprint column over the object's outline on its support plane
-   (``footprint_margin``), other objects excepted; selected support far from the outline stays.
+   (``footprint_margin``), other objects excepted; selected support far from the outline stays,
+   and so does support on or under the plane that the views see beside the object.
 
 Pixels to fill (the AMCR masks, supp. Eq. 1): per training view, the pixels at least ``mask_share``
 of whose colour the removed Gaussians gave in the original model.
