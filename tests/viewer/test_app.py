@@ -73,6 +73,7 @@ def test_the_page_click_and_run_button_give_what_run_click_gives(tiny_scene, tmp
         assert job is not None and app.wait_for_job(600) and job.error is None, job.error
         assert [job.stages[s].what for s in ("segment", "associate", "distill", "remove")] == ["up to date"] * 3 + ["ran"]
         assert "remove: ran in" in app.g_stages.content and "removed" in session.available()
+        assert app.g_within.content == "stage: -" and app.g_within_bar.value == 0.0  # the job is done: no stage running
     finally:
         app.stop()
     assert main(["run", *common, "--until", "remove", "--click", str(c)]) == 0
@@ -154,5 +155,32 @@ def test_the_page_draws_the_most_opaque_splats_and_the_selected_ones_among_them(
         app.set_max_splats(0)
         assert app.splats["before"][2] is None and app.splats["before"][3].buffer.shape[0] == len(model)
         assert app.selection_node.buffer.shape[0] == int(sel.sum())
+    finally:
+        app.stop()
+
+
+def test_the_page_shows_the_running_stage_s_own_progress(make_blobs_scene, tmp_path):
+    """The panel's second bar and its line are the job's :meth:`RunJob.within` (what the stage's bar
+    last counted), the first bar the share of stages done."""
+    from inpaint360gs.viewer.session import RunJob
+
+    scene, model, labels, session = blobs_session(make_blobs_scene, tmp_path, "within", 6)
+    app = ViewerApp(session, port=0, background=False)
+    try:
+        assert app.g_within.content == "stage: -"
+        job = session.job = RunJob(runner=None, until="distill")  # a job as its thread leaves it mid-stage (never started)
+        job._on_stage("train", "ran", 1.0)
+        job._on_stage("segment", "running", None)
+        job._on_bar("segment (gt)", 3, 10)
+        app._show_progress(job)
+        assert app.g_within.content == "stage: segment (gt) 3/10" and app.g_within_bar.value == pytest.approx(30.0)
+        assert app.g_bar.value == pytest.approx(25.0)  # 1 of the 4 stages up to distill
+        job._on_stage("segment", "ran", 1.0)
+        job._on_stage("associate", "running", None)  # a stage without a bar: the last stage's is not shown
+        app._show_progress(job)
+        assert app.g_within.content == "stage: -" and app.g_within_bar.value == 0.0
+        job._on_bar("open-ended", 4, None)
+        app._show_progress(job)
+        assert app.g_within.content == "stage: open-ended 4"
     finally:
         app.stop()

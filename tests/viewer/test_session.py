@@ -215,3 +215,41 @@ def test_a_click_draws_its_selection_first_and_its_check_follows_the_same_as_run
     both = plan_removal(field, scene, clicks=[c2], cfg=session.cfg.removal, backend=session.cfg.backend)
     assert session.clicks == [c2] and np.array_equal(session.selected(), both.removal.removed_mask.numpy())
     assert session.plan.check == both.check and session.plan.targets == [7]
+
+
+def test_the_run_job_records_the_running_stage_s_own_progress(tiny_scene, tmp_path):
+    """The Run button's job (:class:`RunJob`) on the tiny scene with its model (segment, associate,
+    distill): the distill stage's bar counts up to its 20 steps and the segment stage's to its views,
+    though the run shows no terminal bars; the job's :meth:`RunJob.within` is None once it is done."""
+    from dataclasses import replace
+
+    from inpaint360gs.core.progress import progress_listener
+    from inpaint360gs.pipeline.run import Runner
+    from inpaint360gs.viewer.session import RunJob
+
+    root, model = tiny_scene
+    scene = load_scene(root)
+    cfg = get_preset("cpu")
+    cfg = replace(cfg, distill=replace(cfg.distill, iterations=20))
+    runner = Runner(scene, tmp_path / "run", cfg, model=model, ids=[1], progress=False, accept=True)
+    seen = []
+    with progress_listener(lambda *a: seen.append(a)):  # this thread's listener: the job's bars are not its
+        job = RunJob(runner, until="distill")
+        told, on_bar = [], job._on_bar
+
+        def spy(desc, done, total):  # what the job's thread tells the job, and what the page then reads
+            on_bar(desc, done, total)
+            told.append(((desc, done, total), job.within()))
+
+        job._on_bar = spy
+        assert job.start().wait(600) and job.error is None, job.error
+    assert seen == [] and told and all(got == read for got, read in told)
+    for desc in {d for (d, _, _), _ in told}:
+        counts = [n for (d, n, _), _ in told if d == desc]
+        assert counts == sorted(counts), desc
+    assert [job.stages[s].what for s in ("train", "segment", "associate", "distill")] == ["given", "ran", "ran", "ran"]
+    distill = [d for d in job.bars if d.startswith("distill")]
+    assert len(distill) == 1 and job.bars[distill[0]] == (20, 20)
+    segment = [d for d in job.bars if d.startswith("segment")]
+    assert len(segment) == 1 and job.bars[segment[0]] == (len(scene.train_views),) * 2
+    assert job.within() is None

@@ -32,6 +32,7 @@ import torch
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import sha256_file
 from inpaint360gs.core.gaussians import SH_C0, Gaussians
+from inpaint360gs.core.progress import stage_bar
 from inpaint360gs.distill.cached import CachedFeatureRenderer, spatial_order
 from inpaint360gs.distill.config import DistillConfig
 from inpaint360gs.distill.field import CLASSIFIER_JSON, DISTILL_JSON, MODEL_PLY, IdentityField, make_classifier, write_classifier
@@ -210,8 +211,6 @@ def distill_stage(
     Returns: :class:`DistillResult`.
     Raises: :class:`InputError` for invalid settings, a non-empty ``out``, or masks and model not
     made from this scene (or the association not from this model)."""
-    from tqdm import tqdm
-
     check_stage_call("distill_stage", scene, out, cfg, DistillConfig, overwrite=overwrite, progress=progress, out_optional=True, models={"model": model},
                      folders={"masks_dir": masks_dir, **({"objects": objects} if isinstance(objects, (str, Path)) else {})})
     if not isinstance(objects, (str, Path)) and not (isinstance(objects, (list, tuple)) and all(isinstance(i, int) and not isinstance(i, bool) for i in objects)):
@@ -248,7 +247,7 @@ def distill_stage(
 
     t0 = time.perf_counter()
     curve, window = [], _Window()
-    bar = tqdm(total=cfg.iterations, disable=not progress, desc=f"distill {scene.name}", dynamic_ncols=True)
+    bar = stage_bar(cfg.iterations, f"distill {scene.name}", progress, dynamic_ncols=True)
     try:
         while d.loop.step_index < cfg.iterations:
             res = d.loop.step()

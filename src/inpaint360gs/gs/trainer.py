@@ -31,6 +31,7 @@ from inpaint360gs.gs.checkpoint import CHECKPOINT_NAME, load_checkpoint, save_ch
 from inpaint360gs.gs.config import TrainConfig
 from inpaint360gs.gs.evaluate import evaluate_views
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.progress import stage_bar
 from inpaint360gs.gs.loss import photometric_loss
 from inpaint360gs.gs.loop import OptimizationLoop, SceneViews, Target
 from inpaint360gs.gs.optim import Params, learning_rates, means_lr
@@ -266,8 +267,6 @@ class Trainer:
     def run(self, *, resume: bool = False, overwrite: bool = False) -> TrainResult:
         """Train to the end and write the outputs; ``resume``/``overwrite`` as in :func:`train`.
         A failed run leaves its checkpoint (with log and config) or nothing."""
-        from tqdm import tqdm
-
         self.t0 = time.perf_counter()
         self._fresh_state()
         data = self._prepare_folder(resume, overwrite)
@@ -276,7 +275,7 @@ class Trainer:
         created = not self.out.exists()
         self.out.mkdir(parents=True, exist_ok=True)
         try:
-            return self._run(tqdm)
+            return self._run()
         except BaseException:
             # a failed or interrupted run leaves what resumes it (checkpoint + its log and config), or nothing
             if not (self.out / CHECKPOINT_NAME).is_file():
@@ -286,13 +285,13 @@ class Trainer:
                     self.out.rmdir()
             raise
 
-    def _run(self, tqdm) -> TrainResult:
+    def _run(self) -> TrainResult:
         cfg = self.cfg
         write_text(
             self.out / "config.yaml",
             yaml.safe_dump({**self._identity(), "scene_root": str(self.scene.root), "effective_config": cfg.to_dict(), "scene_extent": self.extent}, sort_keys=False),
         )
-        bar = tqdm(total=cfg.iterations, initial=self.step, disable=not self.progress, desc=f"3DGS {self.scene.name}", dynamic_ncols=True)
+        bar = stage_bar(cfg.iterations, f"3DGS {self.scene.name}", self.progress, initial=self.step, dynamic_ncols=True)
         try:
             while self.step < cfg.iterations:
                 rec = self._train_step()

@@ -24,10 +24,10 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.progress import stage_bar
 from inpaint360gs.core.support import STANDING
 from inpaint360gs.distill.field import IdentityField
 from inpaint360gs.inpaint.conditioned import inpaint_views, reprojection_error
@@ -290,7 +290,7 @@ def inpaint_scene(
 
     # 6. 3D inpainting, occluders back
     t0 = time.perf_counter()
-    bar = tqdm(total=cfg.refine.resolved().iterations, desc="3D inpainting", disable=not progress, dynamic_ncols=True)
+    bar = stage_bar(cfg.refine.resolved().iterations, "3D inpainting", progress, dynamic_ncols=True)
     removed_points = original.means[removed_mask].detach().double().numpy()
     active = footprint_rows(edited, footprints, cfg.footprint_margin) if footprints else None
     refined, log = refine(edited, new, views, cfg.refine, region=removed_points, extent=scene.extent, progress=bar.update, active=active)

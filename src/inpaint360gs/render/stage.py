@@ -8,11 +8,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import torch
-from tqdm import tqdm
 
 from inpaint360gs.core import layout
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.progress import track
 from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir
 from inpaint360gs.io.images import write_depth, write_image
@@ -47,7 +47,7 @@ def render_stage(
         raise InputError("expected a list of the scene's views", setting="render_stage.views")
     scales, empty = {}, 0
     with atomic_dir(out, overwrite=overwrite) as tmp:
-        for v in tqdm(views, desc="render", disable=not (views and progress)):
+        for v in track(views, "render", bool(views and progress)):
             o = render(model, v.camera, sh_degree=sh_degree, background=background, backend=backend)
             write_image(tmp / layout.RENDER_COLOR_DIR / f"{v.stem}.png", o.color)
             scales[v.name] = write_depth(tmp / "depth" / v.stem, o.depth)

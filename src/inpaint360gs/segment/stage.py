@@ -16,10 +16,10 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from tqdm import tqdm
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians
+from inpaint360gs.core.progress import track
 from inpaint360gs.io import provenance
 from inpaint360gs.io.arguments import check_stage_call
 from inpaint360gs.io.atomic import atomic_dir, check_output_dir
@@ -106,7 +106,7 @@ def segment_stage(
     per_view: dict[str, dict] = {}
     seconds = []
     with atomic_dir(out, overwrite=overwrite) as tmp:
-        for v in tqdm(views, desc=f"segment ({segmenter.name})", disable=not progress):
+        for v in track(views, f"segment ({segmenter.name})", progress):
             t = time.perf_counter()
             ids = check_id_image(segmenter.segment(v, images[v.name]), v, segmenter.name)
             seconds.append(time.perf_counter() - t)

@@ -12,7 +12,8 @@ this module puts it in the page and turns the page's events into the session's c
 * Each training camera as a frustum with its photo. Clicking a frustum chooses that camera (the
   page's camera moves to it; the panel shows the photo with the selection beside the render at that
   camera); clicking on the chosen camera's photo selects the object under that pixel, or drops it.
-* Run (the session's :class:`.session.RunJob`, per-stage progress), Clear, Save clicks to
+* Run (the session's :class:`.session.RunJob`: the share of stages done, and the running stage's
+  own bar, e.g. "3DGS 1200/3000", as the command's progress bars count), Clear, Save clicks to
   scene.json, and downloads of the shown PLY and the inpainting's turntable GIF."""
 
 from __future__ import annotations
@@ -134,6 +135,8 @@ class ViewerApp:
         self.g_run.on_click(lambda _: self.run())
         with gui.add_folder("progress"):
             self.g_bar = gui.add_progress_bar(0.0)
+            self.g_within_bar = gui.add_progress_bar(0.0)
+            self.g_within = gui.add_markdown(self._within()[0])
             self.g_stages = gui.add_markdown(self._stages())
         with gui.add_folder("export"):
             self.g_ply = gui.add_button("Download the shown PLY")
@@ -162,6 +165,27 @@ class ViewerApp:
         elif job.done:
             lines.append("\n**done**")
         return "\n".join(lines)
+
+    def _within(self) -> tuple[str, float]:
+        """The running stage's own progress: its line (e.g. "stage: 3DGS garden 1200/3000"; "stage: -"
+        when no stage's bar is counting) and its bar's value (0..100)."""
+        job = self.session.job
+        w = job.within() if job is not None else None  # read once: the run's thread keeps updating it
+        if w is None:
+            return "stage: -", 0.0
+        desc, done, total = w
+        if not total:
+            return f"stage: {desc} {done}", 0.0
+        return f"stage: {desc} {done}/{total}", 100.0 * min(done / total, 1.0)
+
+    def _show_progress(self, job) -> None:
+        """Both bars and the stage table; only what changed is sent (each update is a message and a
+        redraw in the page)."""
+        line, value = self._within()
+        for gui, attr, new in ((self.g_bar, "value", 100.0 * job.fraction()), (self.g_within_bar, "value", value),
+                               (self.g_within, "content", line), (self.g_stages, "content", self._stages())):  # fmt: skip
+            if getattr(gui, attr) != new:
+                setattr(gui, attr, new)
 
     def _refresh_text(self) -> None:
         self.g_status.content = self._status()
@@ -323,13 +347,11 @@ class ViewerApp:
 
     def _follow(self, job) -> None:
         while not job.done:
-            self.g_bar.value = 100.0 * job.fraction()
-            self.g_stages.content = self._stages()
+            self._show_progress(job)  # the job's counts are read, not waited for: the page stays responsive
             time.sleep(0.5)
         with self.lock:
             self.session.after_run()
-            self.g_bar.value = 100.0 * job.fraction()
-            self.g_stages.content = self._stages()
+            self._show_progress(job)
             report, picture = self.session.check_report()
             if report is not None:
                 state = "passed" if report["passed"] else "FAILED (" + ", ".join(report["failed"]) + ")" + (", accepted" if report["accepted"] else "")

@@ -27,6 +27,7 @@ from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.gaussians import Gaussians, quat_to_rotmat
 from inpaint360gs.core.layout import SCENE_JSON, RunLayout
+from inpaint360gs.core.progress import progress_listener
 from inpaint360gs.io.atomic import write_text
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene, View
@@ -201,7 +202,9 @@ class StageState:
 @dataclass
 class RunJob:
     """A run of :class:`Runner` in a background thread (the page stays responsive; closing it does
-    not stop the job). ``stages``: each stage's state; ``error``: the one-line failure, if any."""
+    not stop the job). ``stages``: each stage's state; ``error``: the one-line failure, if any;
+    ``bars``: the last count of each progress bar the run's stages made (desc -> (done, total), in
+    the order they were made; :mod:`inpaint360gs.core.progress`), :meth:`within` the running one's."""
 
     runner: Runner
     until: str = STAGES[-1]
@@ -209,9 +212,18 @@ class RunJob:
     error: str | None = None
     done: bool = False
     thread: threading.Thread | None = None
+    bars: dict[str, tuple[int, int | None]] = field(default_factory=dict)
+    _within: tuple[str, int, int | None] | None = None
 
     def _on_stage(self, stage: str, what: str, seconds: float | None) -> None:
+        if what == "running":
+            self._within = None  # the previous stage's last bar is not this one's
         self.stages[stage] = StageState(what, seconds, time.monotonic() if what == "running" else None)
+
+    def _on_bar(self, desc: str, done: int, total: int | None) -> None:
+        """The run thread's progress listener: one assignment each (a stage's step is not slowed)."""
+        self._within = (desc, done, total)
+        self.bars[desc] = (done, total)
 
     def start(self) -> "RunJob":
         self.runner.on_stage = self._on_stage
@@ -221,7 +233,8 @@ class RunJob:
 
     def _run(self) -> None:
         try:
-            self.runner.run(self.until)
+            with progress_listener(self._on_bar):
+                self.runner.run(self.until)
         except Exception as e:  # shown in the page as one line; the run's folder keeps what it wrote (run resumes it)
             self.error = f"{type(e).__name__}: {e}"
         finally:
@@ -232,6 +245,12 @@ class RunJob:
         if self.thread is not None:
             self.thread.join(timeout)
         return self.done
+
+    def within(self) -> tuple[str, int, int | None] | None:
+        """Progress within the running stage: its latest bar's (desc, done, total) (``total`` None
+        when unknown), e.g. ``("3DGS garden", 1200, 3000)``; None when the job is done or the running
+        stage has made no bar yet (the association and the removal make none)."""
+        return None if self.done else self._within
 
     def fraction(self) -> float:
         """Share of the stages finished (0..1)."""
