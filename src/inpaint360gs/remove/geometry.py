@@ -121,8 +121,8 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
     ``silhouette_share(indices, body) -> (M,)``: the share of the training views showing each
     Gaussian in which its centre lies in the silhouette of ``body``; given, a Gaussian of the column
     higher than the object goes only when that share reaches ``cfg.column_silhouette`` (None: the
-    whole column to its top; on the plane, a Gaussian the selection did not take stays when its
-    share is below it and it has the support's colours). Returns the new flags and the footprints
+    whole column to its top; on the plane a Gaussian the selection did not take, and under it any
+    Gaussian, stays when its share is below it and it has the colour of the support next to it). Returns the new flags and the footprints
     found; ``counts`` records what the step did (or why it did not)."""
     from inpaint360gs.core.support import STANDING, object_footprint
 
@@ -167,15 +167,14 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         # selection: its own low parts go, as above) or under it (a plain sheet or table top gives
         # 3DGS no depth, and part of it lies under the plane), is the support when it has the
         # support's colours: it stays. The dark underside, contact shadow and print go.
-        seen = beside.copy()
-        if colours is not None and seen.any():
-            seen[seen] = support_coloured_nearby(means[seen], colours[seen], means[ring], colours[ring])
+        if colours is not None and beside.any():
+            beside[beside] = support_coloured_nearby(means[beside], colours[beside], means[ring], colours[ring])
         else:
-            seen[:] = False
-        support |= seen
+            beside[:] = False
+        support |= beside
         counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size,
                                                    "above_off_silhouette": dropped,
-                                                   "support_beside": int(seen.sum()), "support_beside_under_plane": int((seen & (h < -cfg.support_band * fp.height)).sum())})  # fmt: skip
+                                                   "support_beside": int(beside.sum()), "support_beside_under_plane": int((beside & (h < -cfg.support_band * fp.height)).sum())})  # fmt: skip
         remove = (remove | column) & ~support
         # The object's own low parts (a flat base, a rim lying on the support: below the outline's
         # standing share, not in the support's colours) covered support that is now empty: the
