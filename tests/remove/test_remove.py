@@ -746,3 +746,42 @@ def test_footprint_column_keeps_the_support_the_views_see_beside_the_object():
     # without the silhouette test the column takes the floor under the spout
     out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours)
     assert out[under_spout].all()
+
+
+def test_footprint_column_gives_back_the_support_the_selection_took_beside_the_object():
+    """The object field takes a strip of the floor in front of a box with the box (the selection's
+    own low Gaussians, within reach of the outline). The views see that strip beside the box
+    standing above the plane, and it has the floor's colours: it stays. A dark contact shadow the
+    selection took there goes with the box. The silhouette the test reads is the box's above the
+    plane: a strip of floor is in its own silhouette in every view."""
+    from inpaint360gs.remove.geometry import footprint_columns
+
+    rng = np.random.default_rng(10)
+    g = np.linspace(-1.0, 1.0, 81)
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    floor = floor[~((floor[:, 0] > -0.3) & (floor[:, 0] < 0.37) & (np.abs(floor[:, 1]) < 0.3))]
+    box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
+    strip = np.c_[rng.uniform(0.29, 0.36, (60, 1)), rng.uniform(-0.25, 0.25, (60, 1)), rng.normal(0, 0.002, 60)]
+    shadow = np.c_[rng.uniform(0.255, 0.28, (30, 1)), rng.uniform(-0.25, 0.25, (30, 1)), rng.normal(0, 0.002, 30)]
+    means = np.concatenate([floor, box, strip, shadow])
+    part = np.repeat([0, 1, 2, 3], [len(floor), len(box), len(strip), len(shadow)])
+    colours = np.clip(0.6 + rng.normal(0, 0.03, (len(means), 3)), 0, 1)
+    colours[part == 1] = (0.9, 0.8, 0.1)
+    colours[part == 2] = 0.6 + rng.normal(0, 0.005, (60, 3))  # the floor's colour
+    colours[part == 3] = (0.1, 0.08, 0.07)
+    body = part > 0  # the selection: the box, the strip and the shadow
+
+    def share(indices, body_):  # seen from above: in the silhouette where the given body covers the floor
+        x = means[body_, 0]
+        return np.where((means[indices, 0] >= x.min() - 0.01) & (means[indices, 0] <= x.max() + 0.01), 1.0, 0.2)
+
+    up = np.array([0.0, 0.0, 1.0])
+    counts = {}
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), counts, colours, share)
+    assert out[part == 1].all() and out[part == 3].all()
+    assert not out[part == 2].any() and not out[part == 0].any()
+    assert counts["footprint"][0]["support_beside"] == 60
+    # without the silhouette test the strip goes with the box
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours)
+    assert out[part == 2].all()

@@ -146,13 +146,15 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         low = np.abs(h) <= cfg.support_band * fp.height
         # on the plane and under it, the same test tells the support the views see beside the object
         # (under a spout, a handle, a belly: the outline on the plane is wider than what hides the
-        # support; a plain support's Gaussians placed under the plane) from what is under it, which
-        # no view sees but through the hole (below)
-        flat = np.flatnonzero((remove | column) & ((~body & low) | (h < -cfg.support_band * fp.height)))
+        # support; a plain support's Gaussians placed under the plane; a piece of the support next
+        # to the object that the selection took) from what is under it, which no view sees but
+        # through the hole (below). The silhouette is that of the object standing above the plane:
+        # a piece of support the selection took is in its own silhouette in every view.
+        flat = np.flatnonzero((remove | column) & (low | (h < -cfg.support_band * fp.height)))
         dropped = 0
         beside = np.zeros_like(remove)
         if silhouette_share is not None and cfg.column_silhouette is not None and len(high) + len(flat):
-            off = silhouette_share(np.concatenate([high, flat]), body) < cfg.column_silhouette
+            off = silhouette_share(np.concatenate([high, flat]), body & (h > cfg.support_band * fp.height)) < cfg.column_silhouette
             column[high[off[: len(high)]]] = False
             beside[flat[off[len(high) :]]] = True
             dropped = int(off[: len(high)].sum())
