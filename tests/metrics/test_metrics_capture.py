@@ -119,3 +119,35 @@ def test_standing_share_leaves_out_faint_floaters_over_the_objects_top():
     # below the top a faint Gaussian still counts
     low = np.c_[over[:, :2], np.full(20, 0.2)]
     assert standing_share(np.concatenate([floor[~fp.inside(floor)], low]), faint, fp, reference=before)[1] == 20
+
+
+def test_a_neighbour_reaching_into_the_column_does_not_stand_where_the_object_stood():
+    """A big box beside the object reaches into the footprint column (the outline is convex); after
+    a clean removal only the box's corner stands there. Left out as a neighbour (most of it lies
+    outside the column), the share is 0; a piece of the object the field gave another label, lying
+    wholly inside the column, is no neighbour and still counts."""
+    from inpaint360gs.metrics.capture import neighbour_gaussians, standing_mass
+
+    rng = np.random.default_rng(6)
+    floor, obj, _ = _floor_and_box(rng, 0)
+    fp = object_footprint(obj, np.ones(len(obj)), floor, np.ones(len(floor)), np.array([0.0, 0.0, 1.0]))
+    big = np.c_[rng.uniform(0.15, 0.9, 2000), rng.uniform(-0.5, 0.5, 2000), rng.uniform(0.0, 0.4, 2000)]
+    piece = np.c_[rng.uniform(-0.1, 0.0, (50, 2)), rng.uniform(0.1, 0.2, 50)]
+    before_pts = np.concatenate([floor, obj, big, piece])
+    op = np.ones(len(before_pts))
+    members = np.zeros((len(before_pts), 2), dtype=bool)
+    members[len(floor) + len(obj) : len(floor) + len(obj) + len(big), 0] = True
+    members[-len(piece) :, 1] = True
+    nb = neighbour_gaussians(before_pts, op, fp, members)
+    assert nb[members[:, 0]].all() and not nb[~members[:, 0]].any()
+    in_col = fp.inside(big) & (fp.heights(big) > 0.1 * fp.height)
+    assert in_col.sum() > 20  # the box's corner stands in the column
+    before = standing_mass(before_pts, op, fp, exclude=nb)
+    after = np.concatenate([floor, big])  # the object removed cleanly
+    keep = np.r_[np.zeros(len(floor), bool), np.ones(len(big), bool)]
+    assert standing_share(after, np.ones(len(after)), fp, reference=before)[1] == int(in_col.sum())
+    assert standing_share(after, np.ones(len(after)), fp, reference=before, exclude=keep) == (0.0, 0)
+    left = np.concatenate([floor, big, piece])  # the piece the field labelled otherwise is left
+    exclude = np.r_[np.zeros(len(floor), bool), np.ones(len(big), bool), np.zeros(len(piece), bool)]
+    share, count = standing_share(left, np.ones(len(left)), fp, reference=before, exclude=exclude)
+    assert count == 50 and share == pytest.approx(50 / before)

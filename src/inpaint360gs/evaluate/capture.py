@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from scipy.spatial import cKDTree
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.core.files import read_json_object
@@ -20,7 +21,7 @@ from inpaint360gs.core.support import Footprint, object_footprint
 from inpaint360gs.evaluate.limits import CheckLimits
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.metrics.capture import psnr_outside, standing_mass, standing_share, texture_ratios
+from inpaint360gs.metrics.capture import neighbour_gaussians, psnr_outside, standing_mass, standing_share, texture_ratios
 from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import footprint
 
@@ -117,13 +118,40 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
         scores["standing_note"] = str(e)
         return scores, renders
     scores["object_height"] = fp.height
-    before = standing_mass(means, opac, fp)  # the object: what stood in the column before the removal
+    neighbours = _neighbours(run.distill, means, opac, rm, fp)
+    scores["standing_neighbours"] = int(neighbours.sum())
+    before = standing_mass(means, opac, fp, exclude=neighbours)  # the object: what stood in the column before the removal
     for name in ("removed", "inpainted"):
         if name in models:
             m = models[name]
-            share, count = standing_share(m.means.detach().double().numpy(), m.opacities.detach().double().numpy(), fp, reference=before)
+            mm = m.means.detach().double().numpy()
+            # a neighbour's Gaussians in the evaluated model: those nearest to one in the distilled model
+            exclude = neighbours[cKDTree(means).query(mm)[1]] if neighbours.any() else None
+            share, count = standing_share(mm, m.opacities.detach().double().numpy(), fp, reference=before, exclude=exclude)
             scores["standing"][name] = {"share": share, "count": count}
     return scores, renders
+
+
+def _neighbours(distill: Path, means: np.ndarray, opac: np.ndarray, removed: np.ndarray, fp: Footprint) -> np.ndarray:
+    """(N,) bool over the distilled Gaussians: those of other objects reaching into the footprint
+    column (:func:`~inpaint360gs.metrics.capture.neighbour_gaussians`), by the distilled field's
+    labels (probability > 0.5, as the removal protects other objects); none without a classifier.
+    Objects the removal took half or more of are the removed ones, not neighbours."""
+    from inpaint360gs.distill.field import IdentityField
+
+    try:
+        field_ = IdentityField.load(distill)
+    except (InputError, OSError, ValueError, KeyError):
+        return np.zeros(len(means), dtype=bool)
+    if len(field_.gaussians) != len(means):
+        return np.zeros(len(means), dtype=bool)
+    with torch.no_grad():
+        probs = field_.gaussian_probs().numpy()
+    members = probs > 0.5
+    others = [k for k, oid in enumerate(field_.object_ids) if oid != 0 and (members[:, k] & removed).sum() < 0.5 * members[:, k].sum()]
+    if not others:
+        return np.zeros(len(means), dtype=bool)
+    return neighbour_gaussians(means, opac, fp, members[:, others])
 
 
 def figure(renders: dict[str, dict[str, np.ndarray]], names: list[str]) -> np.ndarray:

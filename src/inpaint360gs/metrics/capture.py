@@ -81,7 +81,7 @@ def _column(means: np.ndarray, opacities: np.ndarray, footprint: Footprint) -> t
 
 
 def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1,
-                   reference: float | None = None) -> tuple[float, int]:  # fmt: skip
+                   reference: float | None = None, exclude: np.ndarray | None = None) -> tuple[float, int]:  # fmt: skip
     """(opacity-weighted share, count) of the Gaussians in the footprint column (any height from
     one object height below the plane to twice above) that stand higher above the plane than
     ``height_frac`` x the object's height. The share is of everything in the column (0 when it
@@ -93,9 +93,12 @@ def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprin
     :data:`OPAQUE_ABOVE_TOP` are not counted. The band over the top catches a part of the object the removal missed
     (the footprint then measures only the removed part), an opaque surface; the faint Gaussians over
     a removed object are the room's floaters, which the removal leaves by design (outside the
-    object's silhouette, docs/architecture.md "The footprint column")."""
+    object's silhouette, docs/architecture.md "The footprint column"). ``exclude`` ((N,) bool): left
+    out of the column (a neighbouring object reaching into it, :func:`neighbour_gaussians`)."""
     opacities = np.asarray(opacities).reshape(-1)
     col, h = _column(means, opacities, footprint)
+    if exclude is not None:
+        col &= ~np.asarray(exclude, dtype=bool)
     w = opacities[col].astype(np.float64)
     up = h[col] > height_frac * footprint.height
     total = reference if reference is not None else w.sum()
@@ -104,8 +107,30 @@ def standing_share(means: np.ndarray, opacities: np.ndarray, footprint: Footprin
     return float(w[up].sum() / total), int(up.sum())
 
 
-def standing_mass(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1) -> float:
+def standing_mass(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, height_frac: float = 0.1,
+                  exclude: np.ndarray | None = None) -> float:  # fmt: skip
     """The opacity summed over what stands in the footprint column (as :func:`standing_share` counts it)."""
     opacities = np.asarray(opacities).reshape(-1)
     col, h = _column(means, opacities, footprint)
+    if exclude is not None:
+        col &= ~np.asarray(exclude, dtype=bool)
     return float(opacities[col & (h > height_frac * footprint.height)].astype(np.float64).sum())
+
+
+def neighbour_gaussians(means: np.ndarray, opacities: np.ndarray, footprint: Footprint, members: np.ndarray,
+                        height_frac: float = 0.1) -> np.ndarray:  # fmt: skip
+    """(N,) bool: the Gaussians of the objects ``members`` ((N, K) bool: Gaussian i belongs to
+    object k) that stand mostly outside the footprint column: when fewer than half of an object's
+    Gaussians standing above the plane (``height_frac`` x the object's height, as
+    :func:`standing_share` counts) stand in the column, it is a neighbour that reaches into it (the
+    outline is convex: a teapot's spout and handle span a corner of the box behind it). An object
+    standing mostly in the column is no neighbour, whatever its label (a piece of the removed
+    object the field labelled otherwise): it counts as standing where the object stood."""
+    col, h = _column(means, np.asarray(opacities).reshape(-1), footprint)
+    stand = h > height_frac * footprint.height
+    out = np.zeros(len(means), dtype=bool)
+    for k in range(members.shape[1]):
+        m = members[:, k] & stand
+        if m.any() and (m & col).sum() < 0.5 * m.sum():
+            out |= members[:, k]
+    return out

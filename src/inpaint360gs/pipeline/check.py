@@ -163,8 +163,10 @@ def score_checks(scores: dict, lim: CheckLimits, stage: str) -> list[Check]:
     st = scores["standing"].get(later)
     if st is not None:
         s = st["share"]
+        nb = scores.get("standing_neighbours") or 0
+        beside = "; other objects reaching into it left out" if nb else ""
         out.append(_fails_on(round(s, 4), bool(s <= lim.standing), f"standing_{later}", f"<= {100 * lim.standing:g} %",
-                             f"{100 * s:.1f} % of what stood in the footprint column (the object) stands there after {stage} ({st['count']} Gaussians)"))  # fmt: skip
+                             f"{100 * s:.1f} % of what stood in the footprint column (the object) stands there after {stage} ({st['count']} Gaussians{beside})"))  # fmt: skip
     elif "standing_note" in scores:
         out.append(Check(f"standing_{later}", True, None, "", f"not scored: {scores['standing_note']}"))
     tex = scores["texture"].get("inpainted") if stage == "inpaint" else None
