@@ -8,8 +8,12 @@ capture without ground truth allows (:mod:`inpaint360gs.evaluate.capture`) and w
 - ``outside_removed``: outside the removed Gaussians' footprint grown by 15 px, the removed model
   renders the photos as well as the 3DGS did (PSNR drop at most :attr:`CheckLimits.outside_drop_db`,
   training and held-out views): the removal took nothing around the object;
+- ``over_removal``: the removal's masks cover at most :attr:`CheckLimits.over_removal` times the
+  pixels of the selection standing above the support (``removal.json``'s ``over_removal``): the
+  removal took no large piece of the support or of a neighbour with the object;
 - ``standing_removed`` / ``standing_inpainted``: nothing stands in the object's footprint column
-  after removal / after inpainting (:attr:`CheckLimits.standing`);
+  after removal / after inpainting (:attr:`CheckLimits.standing`; other objects reaching into the
+  column are left out);
 - ``outside_inpainted``: the inpainting changed nothing outside the grown footprint;
 - ``fill_texture`` / ``fill_luminance``: the fill is about as detailed and as bright as a ring
   around it at the training cameras (ratios within :attr:`CheckLimits.laplacian` and
@@ -201,6 +205,10 @@ def check_run(scene: Scene, layout: RunLayout, model: Path, stage: str, *, limit
     if sel is not None:
         sc = SelectionCheck(**sel)
         report.checks.append(Check("selection", sc.passed, sc.verdict, "object", sc.reason))
+    over = (removal.get("over_removal") or {}).get("ratio")
+    if lim.over_removal is not None and over is not None:
+        report.checks.append(_fails_on(round(over, 3), bool(over <= lim.over_removal), "over_removal", f"<= {lim.over_removal:g}",
+                                       f"the removal's masks cover {over:.2f}x the pixels of the selection standing above the support"))  # fmt: skip
     run = CaptureRun(model, layout.distill, layout.removed, layout.inpainted if stage == "inpaint" else None)
     scores, renders = score_capture(scene, run)
     # after the inpainting the removal's own checks still hold: a removal that took the mat outside

@@ -135,7 +135,8 @@ def over_removal(field_: IdentityField, res, views, stack: np.ndarray, cfg: Remo
     same mask rule), summed over the training views. Support taken beyond the object (large support
     Gaussians in the footprint column, or support the field labelled as the object) shows as a
     ratio well above 1; the footprint column's margin and contact rim, which are meant to go, add a
-    little. Recorded, not judged (docs/architecture.md, "A run checks itself")."""
+    little. The run's check judges it (``CheckLimits.over_removal``; docs/architecture.md, "A run
+    checks itself")."""
     from inpaint360gs.remove.objects import fill_masks
 
     if res.standing_mask is None or not bool(res.standing_mask.any()):
