@@ -165,10 +165,10 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         ring &= (d > cfg.footprint_margin * fp.size) & (d <= (cfg.support_reach + 0.25) * fp.size)
         if colours is not None and support.any():
             support[support] = support_coloured(colours[support], colours[ring])
-        # What the views see beside the object's silhouette, on the support plane (not taken by the
-        # selection: its own low parts go, as above) or under it (a plain sheet or table top gives
-        # 3DGS no depth, and part of it lies under the plane), is the support when it has the
-        # support's colours: it stays. The dark underside, contact shadow and print go.
+        # What the views see beside the object's silhouette, on the support plane (the selection's
+        # own Gaussians too) or under it (a plain sheet or table top gives 3DGS no depth, and part of
+        # it lies under the plane), is the support when it has the colours of the support next to
+        # it: it stays. The dark underside, contact shadow and print go.
         if colours is not None and beside.any():
             beside[beside] = support_coloured_nearby(means[beside], colours[beside], means[ring], colours[ring])
         else:
