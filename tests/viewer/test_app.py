@@ -134,6 +134,45 @@ def test_the_browser_shows_the_splats_in_the_scenes_colours_and_the_selection(ma
         shutil.copyfile(shot, keep)
 
 
+@pytest.mark.skipif(chromium() is None, reason="no chromium (Debian's chromium package; .ci/run installs it)")
+def test_a_shift_click_on_the_splats_in_the_browser_selects_the_blob_under_it(make_blobs_scene, tmp_path):
+    """A shift-click in the page on the pixels where a blob is drawn: the page sends its ray, the
+    viewer selects that blob (its object id, as a click on a photo of it) and draws it tinted; the
+    other blob stays unselected."""
+    scene, model, labels, session = blobs_session(make_blobs_scene, tmp_path, "splatclick", 10)
+    app = ViewerApp(session, port=0)
+    rgbs, lab = splat_arrays(model)["rgbs"], labels.numpy()
+    blob1, blob2 = rgbs[lab == 1].mean(axis=0), rgbs[lab == 2].mean(axis=0)
+    blob2_tinted = (0.5 * rgbs[lab == 2] + 0.5 * SELECTED_TINT).mean(axis=0)
+    try:
+        browser = Browser()
+        try:
+            browser.call("Page.navigate", url=f"http://127.0.0.1:{app.port}")
+            browser.wait_for(lambda im: share_near(im / 255.0, blob1) > 0.0008 and share_near(im / 255.0, blob2) > 0.0008)
+            time.sleep(2.0)  # the fade-in's end
+            img = browser.screenshot() / 255.0
+            view = img[:, : int(img.shape[1] * 0.72)]  # left of the panel (its photo shows the blobs too)
+            ys, xs = np.nonzero(np.abs(view - blob2).max(axis=-1) < 0.15)
+            assert len(ys) > 50, "blob 2 is not drawn in the 3D view"
+            y, x = float(np.median(ys)), float(np.median(xs))
+            browser.call("Input.dispatchMouseEvent", type="mouseMoved", x=x, y=y, modifiers=8)
+            for kind in ("mousePressed", "mouseReleased"):
+                browser.call("Input.dispatchMouseEvent", type=kind, x=x, y=y, button="left", clickCount=1, modifiers=8)
+            t0 = time.perf_counter()
+            while session.selected() is None and time.perf_counter() - t0 < 60:
+                time.sleep(0.1)
+            assert session.selected() is not None, "the shift-click reached no selection"
+            assert session.plan.targets == [7]  # blob 2's object id in the field
+            assert len(session.clicks) == 1 and session.clicks[0].view is not None
+            shot = browser.wait_for(lambda im: share_near(im / 255.0, blob2_tinted) > 0.0008, timeout=60)
+        finally:
+            browser.close()
+    finally:
+        app.stop()
+    assert shot is not None, "the selected blob is not drawn tinted"
+    assert share_near(shot / 255.0, blob1) > 0.0008  # the other blob is drawn untinted
+
+
 def test_the_page_draws_the_most_opaque_splats_and_the_selected_ones_among_them(make_blobs_scene, tmp_path):
     """In-process (no browser): with ``max_splats`` the 'before' node holds the most opaque splats,
     a click's selection node the selected ones among them, and "all" sends every splat (and the
