@@ -118,7 +118,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
         scores["standing_note"] = str(e)
         return scores, renders
     scores["object_height"] = fp.height
-    neighbours = _neighbours(run.distill, means, opac, rm, fp)
+    neighbours = _neighbours(run.distill, distilled, opac, rm, fp)
     scores["standing_neighbours"] = int(neighbours.sum())
     before = standing_mass(means, opac, fp, exclude=neighbours)  # the object: what stood in the column before the removal
     for name in ("removed", "inpainted"):
@@ -132,23 +132,21 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
     return scores, renders
 
 
-def _neighbours(distill: Path, means: np.ndarray, opac: np.ndarray, removed: np.ndarray, fp: Footprint) -> np.ndarray:
-    """(N,) bool over the distilled Gaussians: those of other objects reaching into the footprint
-    column (:func:`~inpaint360gs.metrics.capture.neighbour_gaussians`), by the distilled field's
-    labels (probability > 0.5, as the removal protects other objects); none without a classifier.
-    Objects the removal took half or more of are the removed ones, not neighbours."""
-    from inpaint360gs.distill.field import IdentityField
+def _neighbours(distill: Path, distilled, opac: np.ndarray, removed: np.ndarray, fp: Footprint) -> np.ndarray:
+    """(N,) bool over the ``distilled`` Gaussians: those of other objects reaching into the
+    footprint column (:func:`~inpaint360gs.metrics.capture.neighbour_gaussians`), by the distilled
+    field's labels (probability > 0.5, as the removal protects other objects); none when the
+    folder has no classifier. Objects the removal took half or more of are the removed ones."""
+    from inpaint360gs.distill.field import CLASSIFIER_JSON, IdentityField, read_classifier
 
-    try:
-        field_ = IdentityField.load(distill)
-    except (InputError, OSError, ValueError, KeyError):
+    means = distilled.means.detach().double().numpy()
+    if not (distill / CLASSIFIER_JSON).is_file():
         return np.zeros(len(means), dtype=bool)
-    if len(field_.gaussians) != len(means):
-        return np.zeros(len(means), dtype=bool)
+    classifier, ids = read_classifier(distill / CLASSIFIER_JSON)  # a broken one: InputError naming it
     with torch.no_grad():
-        probs = field_.gaussian_probs().numpy()
+        probs = IdentityField(distilled, classifier, ids).gaussian_probs().numpy()
     members = probs > 0.5
-    others = [k for k, oid in enumerate(field_.object_ids) if oid != 0 and (members[:, k] & removed).sum() < 0.5 * members[:, k].sum()]
+    others = [k for k, oid in enumerate(ids) if oid != 0 and (members[:, k] & removed).sum() < 0.5 * members[:, k].sum()]
     if not others:
         return np.zeros(len(means), dtype=bool)
     return neighbour_gaussians(means, opac, fp, members[:, others])

@@ -121,9 +121,10 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
     ``silhouette_share(indices, body) -> (M,)``: the share of the training views showing each
     Gaussian in which its centre lies in the silhouette of ``body``; given, a Gaussian of the column
     higher than the object goes only when that share reaches ``cfg.column_silhouette`` (None: the
-    whole column to its top; on the plane a Gaussian the selection did not take, and under it any
-    Gaussian, stays when its share is below it and it has the colour of the support next to it). Returns the new flags and the footprints
-    found; ``counts`` records what the step did (or why it did not)."""
+    whole column to its top; on and under the plane a Gaussian, the selection's own too, stays
+    when its share of the silhouette of ``body`` standing above the plane is below it and it has
+    the colour of the support next to it). Returns the new flags and the footprints found;
+    ``counts`` records what the step did (or why it did not)."""
     from inpaint360gs.core.support import STANDING, object_footprint
 
     remove = remove.copy()
