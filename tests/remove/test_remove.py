@@ -785,3 +785,50 @@ def test_footprint_column_gives_back_the_support_the_selection_took_beside_the_o
     # without the silhouette test the strip goes with the box
     out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours)
     assert out[part == 2].all()
+
+
+def test_stray_gaussians_over_the_support_neither_widen_the_outline_nor_go_when_the_views_see_them_beside_the_object():
+    """The object field labels a scatter of Gaussians a little over the floor around a box as the
+    box (3DGS puts such Gaussians over a placemat). They stand higher than a tenth of the box's
+    height, so before, the outline was their convex hull, and the column took the floor under all of
+    it. Now the outline is the box's body (a scatter several spacings apart is not linked to it), the
+    floor around the box stays, and the strays seen beside the box in the floor's colours stay too;
+    strays in the box's colours (a sparse part of the object) go with it."""
+    from inpaint360gs.core.support import object_footprint
+    from inpaint360gs.remove.geometry import footprint_columns
+
+    rng = np.random.default_rng(11)
+    g = np.linspace(-1.0, 1.0, 81)
+    fx, fy = np.meshgrid(g, g)
+    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    box = np.c_[rng.uniform(-0.25, 0.25, (3000, 2)), rng.uniform(0.0, 0.5, 3000)]
+    ang = rng.uniform(0, 2 * np.pi, 40)
+    rad = rng.uniform(0.45, 0.7, 40)
+    strays = np.c_[rad * np.cos(ang), rad * np.sin(ang), rng.uniform(0.06, 0.15, 40)]
+    means = np.concatenate([floor, box, strays])
+    part = np.repeat([0, 1, 2], [len(floor), len(box), len(strays)])
+    colours = np.clip(0.6 + rng.normal(0, 0.03, (len(means), 3)), 0, 1)
+    colours[part == 1] = (0.9, 0.8, 0.1)
+    colours[part == 2] = 0.6 + rng.normal(0, 0.005, (40, 3))  # the floor's colour
+    body = part > 0
+    up = np.array([0.0, 0.0, 1.0])
+
+    fp = object_footprint(means[body], np.full(body.sum(), 0.9), means[~body], np.full((~body).sum(), 0.9), up)
+    assert fp.size == pytest.approx(0.5, rel=0.1)  # the box's 0.5 x 0.5, not the strays' 1.3-wide ring
+    assert (fp.distance(means[part == 2]) > 0.1 * fp.size).all()
+
+    def share(indices, body_):  # seen from above: in the silhouette where the given body covers the point
+        xy = means[body_, :2]
+        lo, hi = xy.min(0) - 0.01, xy.max(0) + 0.01
+        return np.where(((means[indices, :2] >= lo) & (means[indices, :2] <= hi)).all(1), 1.0, 0.0)
+
+    under_strays = (part == 0) & (np.linalg.norm(means[:, :2], axis=1) > 0.4)
+    counts = {}
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), counts, colours, share)
+    assert out[part == 1].all()
+    assert not out[part == 2].any() and not out[under_strays].any()
+    assert counts["footprint"][0]["apart"] == 40 and counts["footprint"][0]["support_beside_apart"] == 40
+    # in the box's colours they are the box's own sparse parts: they go
+    colours[part == 2] = (0.9, 0.8, 0.1)
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours, share)
+    assert out[part == 2].all() and not out[under_strays].any()

@@ -14,6 +14,28 @@ from dataclasses import dataclass
 import numpy as np
 
 STANDING = 0.1  # an object's Gaussians higher than this x its height above the support stand on it (they make its outline)
+# standing centres closer than this x their median nearest-neighbour spacing are one body; the outline is
+# the body's (docs/architecture.md, "The footprint column": stray Gaussians over the support, labelled
+# as the object, a few spacings apart from each other and from it, do not widen it)
+OUTLINE_LINK = 6.0
+
+
+def linked_body(points: np.ndarray, link: float, min_part: float) -> np.ndarray:
+    """(N,) bool: the ``points`` in the connected components of the graph that links centres closer
+    than ``link`` x the median nearest-neighbour distance, kept when they hold at least ``min_part``
+    of the largest component's points (scipy's k-d tree and connected components). Fewer than 3
+    points: all of them."""
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    if len(points) < 3:
+        return np.ones(len(points), dtype=bool)
+    tree = cKDTree(points)
+    d, _ = tree.query(points, k=2)
+    graph = tree.sparse_distance_matrix(tree, link * float(np.median(d[:, 1])), output_type="coo_matrix")
+    _, labels = connected_components(graph, directed=False)
+    sizes = np.bincount(labels)
+    return sizes[labels] >= min_part * sizes.max()
 
 
 def fit_plane(points: np.ndarray, up: np.ndarray, *, trim: float = 0.8, rounds: int = 5) -> tuple[np.ndarray, float]:
@@ -168,7 +190,9 @@ def object_footprint(object_means: np.ndarray, object_opacities: np.ndarray, sce
     object's middle; the object's height is its opaque centres' 99th percentile above the plane;
     the outline is those standing higher than ``standing`` x that height (a piece of the support
     taken for the object does not widen it), minus the ``trim_share`` farthest from their median
-    (stray Gaussians). :class:`ValueError` when there are too few Gaussians for either."""
+    and those apart from the standing body (:func:`linked_body` at :data:`OUTLINE_LINK`, parts of
+    at least a tenth of the largest: stray Gaussians over the support). :class:`ValueError` when
+    there are too few Gaussians for either."""
     up = np.asarray(up, dtype=np.float64) / np.linalg.norm(up)
     obj = object_means[object_opacities > min_opacity]
     if len(obj) < 4:
@@ -192,6 +216,7 @@ def object_footprint(object_means: np.ndarray, object_opacities: np.ndarray, sce
     if not height > 0:
         raise ValueError("the object does not stand above the surface around it")
     pts = obj[keep & (hts > standing * height)]
+    pts = pts[linked_body(pts, OUTLINE_LINK, 0.1)]
     if len(pts) < 3:
         raise ValueError("too few of the object's Gaussians stand above the surface around it for an outline")
     fp = Footprint(normal, offset, plane_coordinates(pts, normal), height)

@@ -29,18 +29,11 @@ def object_body(points: np.ndarray, link: float, min_part: float, near: float = 
     at least ``min_part`` of the largest component's points; a smaller piece is kept too where it
     lies inside the kept body's bounding box grown by ``near`` x its size (a sparsely reconstructed
     part of the object, not a stray Gaussian elsewhere in the scene)."""
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
+    from inpaint360gs.core.support import linked_body
 
     if len(points) < 3:
         return np.ones(len(points), dtype=bool)
-    tree = cKDTree(points)
-    d, _ = tree.query(points, k=2)
-    radius = link * float(np.median(d[:, 1]))
-    graph = tree.sparse_distance_matrix(tree, radius, output_type="coo_matrix")
-    _, labels = connected_components(graph, directed=False)
-    sizes = np.bincount(labels)
-    body = sizes[labels] >= min_part * sizes.max()
+    body = linked_body(points, link, min_part)
     lo, hi = points[body].min(axis=0), points[body].max(axis=0)
     pad = near * (hi - lo)
     return body | ((points >= lo - pad) & (points <= hi + pad)).all(axis=1)
@@ -152,13 +145,21 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         # through the hole (below). The silhouette is that of the object standing above the plane:
         # a piece of support the selection took is in its own silhouette in every view.
         flat = np.flatnonzero((remove | column) & (low | (h < -cfg.support_band * fp.height)))
+        # what the selection took standing outside the column, lower than the object's top, is apart
+        # from the object's body (the outline is the body's, core.support.OUTLINE_LINK): Gaussians
+        # a little over the support that the field labelled as the object. The same test tells
+        # the support's (seen beside the object, in the support's colours: they stay) from the
+        # object's own sparse parts (in its silhouette).
+        apart = remove & body & (d > cfg.footprint_margin * fp.size) & (h > cfg.support_band * fp.height) & (h <= fp.height)
+        flat = np.concatenate([flat, np.flatnonzero(apart)])
         dropped = 0
         beside = np.zeros_like(remove)
         if silhouette_share is not None and cfg.column_silhouette is not None and len(high) + len(flat):
-            off = silhouette_share(np.concatenate([high, flat]), body & (h > cfg.support_band * fp.height)) < cfg.column_silhouette
+            off = silhouette_share(np.concatenate([high, flat]), body & (h > cfg.support_band * fp.height) & ~apart) < cfg.column_silhouette
             column[high[off[: len(high)]]] = False
             beside[flat[off[len(high) :]]] = True
             dropped = int(off[: len(high)].sum())
+        apart_off = int((beside & apart).sum())
         support = remove & body & (d > cfg.support_reach * fp.size) & low
         # the support's own Gaussians around the footprint, at whatever depth the column reaches
         # (a plain support gives 3DGS no depth: its Gaussians spread below the plane)
@@ -177,7 +178,8 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         support |= beside
         counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size,
                                                    "above_off_silhouette": dropped,
-                                                   "support_beside": int(beside.sum()), "support_beside_under_plane": int((beside & (h < -cfg.support_band * fp.height)).sum())})  # fmt: skip
+                                                   "support_beside": int(beside.sum()), "support_beside_under_plane": int((beside & (h < -cfg.support_band * fp.height)).sum()),
+                                                   "apart": int(apart.sum()), "apart_off_silhouette": apart_off, "support_beside_apart": int((beside & apart).sum())})  # fmt: skip
         remove = (remove | column) & ~support
         # The object's own low parts (a flat base, a rim lying on the support: below the outline's
         # standing share, not in the support's colours) covered support that is now empty: the

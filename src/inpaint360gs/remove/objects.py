@@ -129,7 +129,7 @@ def remove_objects(
 
         standing = np.zeros_like(body)
         for fp in footprints:
-            standing |= body & (fp.heights(means) > STANDING * fp.height)
+            standing |= body & remove & (fp.heights(means) > STANDING * fp.height)  # what stays (support beside the object) is not the object
     else:
         standing = body
     mask = torch.from_numpy(remove)
