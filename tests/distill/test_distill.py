@@ -27,7 +27,7 @@ from inpaint360gs.distill import DistillConfig, IdentityField, distill_stage, re
 from inpaint360gs.distill.cached import CachedFeatureRenderer
 from inpaint360gs.distill.field import make_classifier
 from inpaint360gs.distill.labels import load_labels
-from inpaint360gs.distill.loss import knn_graph, spatial_loss
+from inpaint360gs.distill.loss import knn_graph, object_loss, spatial_loss
 from inpaint360gs.distill.stage import Distiller, cache_views
 from inpaint360gs.gs.loop import Target
 from inpaint360gs.io.ply import write_ply
@@ -200,6 +200,21 @@ def test_sampled_spatial_loss_draws_from_the_loop_generator(blob_scene):
 
 
 # --- the spatial loss (Eq. 4) ---------------------------------------------------------------------
+
+
+def test_object_loss_is_cross_entropy_with_its_gradient():
+    """L_obj written over the transposed logits gives torch's cross-entropy and its gradient, in
+    float64, with logits large enough that a naive exp would overflow."""
+    gen = torch.Generator().manual_seed(3)
+    logits = (torch.randn(500, 7, generator=gen, dtype=torch.float64) * 300).requires_grad_()
+    labels = torch.randint(0, 7, (500,), generator=gen)
+    ref = torch.nn.functional.cross_entropy(logits, labels)
+    (g_ref,) = torch.autograd.grad(ref, logits)
+    out = object_loss(logits, labels)
+    (g,) = torch.autograd.grad(out, logits)
+    assert torch.isfinite(out)
+    assert out.item() == pytest.approx(ref.item(), rel=1e-12)
+    assert torch.allclose(g, g_ref, rtol=1e-10, atol=1e-14)
 
 
 def test_spatial_loss_hand_cases():

@@ -644,9 +644,7 @@ def test_footprint_column_tells_a_flat_part_of_the_object_from_support_taken_for
     from inpaint360gs.core.gaussians import SH_C0
 
     rng = np.random.default_rng(6)
-    g = np.linspace(-1.0, 1.0, 81)
-    fx, fy = np.meshgrid(g, g)
-    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    floor = _grid_floor(rng)
     beside = (floor[:, 0] > 0.45) & (floor[:, 0] < 0.6) & (np.abs(floor[:, 1]) < 0.1)
     box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
     base = np.c_[rng.uniform(-0.5, -0.4, (60, 1)), rng.uniform(-0.2, 0.2, (60, 1)), rng.uniform(0.004, 0.02, 60)]
@@ -680,9 +678,7 @@ def test_footprint_column_keeps_the_support_the_views_see_under_the_plane_and_ta
     from inpaint360gs.remove.geometry import footprint_columns
 
     rng = np.random.default_rng(8)
-    g = np.linspace(-1.0, 1.0, 81)
-    fx, fy = np.meshgrid(g, g)
-    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    floor = _grid_floor(rng)
     floor = floor[(np.abs(floor[:, 0]) > 0.3) | (np.abs(floor[:, 1]) > 0.3)]
     box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
     deep_seen = np.c_[rng.uniform(0.15, 0.25, (40, 1)), rng.uniform(-0.25, 0.25, (40, 1)), rng.uniform(-0.15, -0.04, 40)]
@@ -718,9 +714,7 @@ def test_footprint_column_keeps_the_support_the_views_see_beside_the_object():
     from inpaint360gs.remove.geometry import footprint_columns
 
     rng = np.random.default_rng(9)
-    g = np.linspace(-1.0, 1.0, 81)
-    fx, fy = np.meshgrid(g, g)
-    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    floor = _grid_floor(rng)
     box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
     spout = np.c_[rng.uniform(0.25, 0.45, (80, 1)), rng.uniform(-0.05, 0.05, (80, 1)), rng.uniform(0.25, 0.3, 80)]
     means = np.concatenate([floor, box, spout])
@@ -757,9 +751,7 @@ def test_footprint_column_gives_back_the_support_the_selection_took_beside_the_o
     from inpaint360gs.remove.geometry import footprint_columns
 
     rng = np.random.default_rng(10)
-    g = np.linspace(-1.0, 1.0, 81)
-    fx, fy = np.meshgrid(g, g)
-    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    floor = _grid_floor(rng)
     floor = floor[~((floor[:, 0] > -0.3) & (floor[:, 0] < 0.37) & (np.abs(floor[:, 1]) < 0.3))]
     box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
     strip = np.c_[rng.uniform(0.29, 0.36, (60, 1)), rng.uniform(-0.25, 0.25, (60, 1)), rng.normal(0, 0.002, 60)]
@@ -798,9 +790,7 @@ def test_stray_gaussians_over_the_support_neither_widen_the_outline_nor_go_when_
     from inpaint360gs.remove.geometry import footprint_columns
 
     rng = np.random.default_rng(11)
-    g = np.linspace(-1.0, 1.0, 81)
-    fx, fy = np.meshgrid(g, g)
-    floor = np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)
+    floor = _grid_floor(rng)
     box = np.c_[rng.uniform(-0.25, 0.25, (3000, 2)), rng.uniform(0.0, 0.5, 3000)]
     ang = rng.uniform(0, 2 * np.pi, 40)
     rad = rng.uniform(0.45, 0.7, 40)
@@ -832,3 +822,55 @@ def test_stray_gaussians_over_the_support_neither_widen_the_outline_nor_go_when_
     colours[part == 2] = (0.9, 0.8, 0.1)
     out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours, share)
     assert out[part == 2].all() and not out[under_strays].any()
+
+
+def test_the_objects_low_parts_the_field_gave_to_the_background_go_and_the_support_around_them_stays():
+    """A yellow box on a textured pink floor; the field gives the box's yellow teeth, lying on the
+    floor in front of it, to the background. They are low, linked to the box and nearer the box's
+    colour than the floor's (in chromaticity: the teeth are lit, the box's lower side in shade):
+    they go with the box (``RemovalConfig.low_parts``). The floor around them, however textured,
+    and a yellow patch on the floor not linked to the box stay; with ``low_parts=None`` the teeth
+    stay."""
+    from inpaint360gs.remove.geometry import chromaticity, footprint_columns, nearer_object
+
+    rng = np.random.default_rng(12)
+    floor = _grid_floor(rng)
+    box = np.c_[rng.uniform(-0.25, 0.25, (3000, 2)), rng.uniform(0.0, 0.5, 3000)]
+    teeth = np.c_[rng.uniform(0.26, 0.34, (40, 1)), rng.uniform(-0.2, 0.2, (40, 1)), rng.uniform(0.005, 0.02, 40)]
+    patch = np.c_[rng.uniform(-0.75, -0.7, (20, 1)), rng.uniform(-0.1, 0.1, (20, 1)), rng.uniform(0.005, 0.02, 20)]
+    means = np.concatenate([floor, box, teeth, patch])
+    part = np.repeat([0, 1, 2, 3], [len(floor), len(box), len(teeth), len(patch)])
+    colours = np.clip(np.array([0.85, 0.62, 0.57]) * rng.uniform(0.6, 1.2, (len(means), 1)), 0, 1)  # a pink floor, lit and shaded
+    colours[part == 1] = np.array([0.55, 0.37, 0.02]) * rng.uniform(0.8, 1.6, (3000, 1))  # the box, its lower side in shade
+    colours[part >= 2] = (0.9, 0.77, 0.05)
+    colours = colours.clip(0, 1)
+    assert np.allclose(chromaticity(np.array([[0.6, 0.4, 0.2]])), chromaticity(np.array([[0.3, 0.2, 0.1]])), atol=0.05)  # lit and shaded
+    body = part == 1
+    up = np.array([0.0, 0.0, 1.0])
+
+    def share(indices, body_):  # seen from above: in the silhouette where the given body covers the point
+        xy = means[body_, :2]
+        lo, hi = xy.min(0) - 0.01, xy.max(0) + 0.01
+        return np.where(((means[indices, :2] >= lo) & (means[indices, :2] <= hi)).all(1), 1.0, 0.0)
+
+    near_teeth = (part == 0) & (means[:, 0] > 0.3) & (np.abs(means[:, 1]) < 0.3)
+    counts = {}
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), counts, colours, share)
+    assert out[part == 1].all() and out[part == 2].all()
+    assert not out[part == 3].any() and not out[near_teeth & (means[:, 0] > 0.4)].any()
+    assert counts["footprint"][0]["low_parts"] >= 30
+    counts = {}
+    out, _ = footprint_columns(means, np.full(len(means), 0.9), body.copy(), [body], np.zeros_like(body), up, RemovalConfig(low_parts=None), counts, colours, share)
+    assert counts["footprint"][0]["low_parts"] == 0 and out[part == 2].sum() < 20  # only the teeth in the column go
+    # in chromaticity the floor's shaded pink is the floor's, the lit teeth the box's
+    pos = np.array([[0.5, 0.0, 0.0], [0.3, 0.0, 0.01]])
+    cand = np.array([[0.85, 0.62, 0.57], [0.9, 0.77, 0.05]]) * 0.5
+    ring = ~body & (part == 0) & (np.linalg.norm(means[:, :2], axis=1) > 0.3)
+    assert nearer_object(pos, cand, means[ring], colours[ring], means[body], colours[body]).tolist() == [False, True]
+
+
+def _grid_floor(rng: np.random.Generator) -> np.ndarray:
+    """A floor of Gaussian centres on the plane z = 0: an 81 x 81 grid over [-1, 1]^2, 2 mm of noise in z."""
+    g = np.linspace(-1.0, 1.0, 81)
+    fx, fy = np.meshgrid(g, g)
+    return np.stack([fx.ravel(), fy.ravel(), rng.normal(0, 0.002, fx.size)], 1)

@@ -28,7 +28,7 @@ import torch
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.core.errors import TrainingDivergedError
 from inpaint360gs.core.gaussians import Gaussians
-from inpaint360gs.gs.optim import Optimizers, Params, as_gaussians, make_optimizers, make_params
+from inpaint360gs.gs.optim import Optimizers, Params, adam, as_gaussians, make_optimizers, make_params
 from inpaint360gs.gs.strategy import DensifyStats, Strategy
 from inpaint360gs.io.images import to_float
 from inpaint360gs.io.scene import Scene, View
@@ -150,7 +150,7 @@ class OptimizationLoop:
         self.adam_eps = adam_eps
         self.optimizers: Optimizers = make_optimizers(self.params, {k: self._lr(k, 0) for k in self.schedules}, adam_eps)
         self.modules = {k: m for k, (m, _) in (modules or {}).items()}
-        self.module_optimizers = {k: torch.optim.Adam(m.parameters(), lr=lr, eps=adam_eps) for k, (m, lr) in (modules or {}).items()}
+        self.module_optimizers = {k: adam(list(m.parameters()), lr, adam_eps) for k, (m, lr) in (modules or {}).items()}
         self.device = gaussians.means.device  # where the parameters live (CUDA for the gsplat backend)
         self.strategy_state = self.strategy.initialize_state(len(gaussians), self.device)
         self.trainable_rows = None if trainable_rows is None else trainable_rows.clone().bool()

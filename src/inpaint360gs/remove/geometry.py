@@ -171,21 +171,41 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         # own Gaussians too) or under it (a plain sheet or table top gives 3DGS no depth, and part of
         # it lies under the plane), is the support when it has the colours of the support next to
         # it: it stays. The dark underside, contact shadow and print go.
+        # the object as it stands, and the support beyond the reach of its low parts (the ring holds
+        # them: a bucket's teeth on the mat), for which of the two a Gaussian's colour is nearer
+        standing = remove & body & (h > STANDING * fp.height) & ~apart
+        reach = cfg.low_parts if cfg.low_parts is not None else cfg.support_reach
+        outer = ~remove & ~column & (h > -cfg.footprint_depth * fp.height) & (h <= cfg.support_band * fp.height)
+        outer &= (d > reach * fp.size) & (d <= (reach + 0.25) * fp.size)
         if colours is not None and beside.any():
-            beside[beside] = support_coloured_nearby(means[beside], colours[beside], means[ring], colours[ring])
+            beside[beside] = support_coloured_nearby(means[beside], colours[beside], means[ring], colours[ring]) & ~nearer_object(
+                means[beside], colours[beside], means[outer], colours[outer], means[standing], colours[standing])
         else:
             beside[:] = False
         support |= beside
-        counts.setdefault("footprint", []).append({"column": int((column & ~remove).sum()), "support_kept": int(support.sum()), "height": fp.height, "size": fp.size,
+        column_added = int((column & ~remove).sum())
+        remove = (remove | column) & ~support
+        # The object's low parts the field gave to the background (a bucket's teeth lying on a mat,
+        # a toy's feet on a sheet): beside the outline, lower than its standing share, linked to
+        # what goes and not in the colours of the support next to them, they go with the object.
+        low_parts = np.zeros_like(remove)
+        if cfg.low_parts is not None and colours is not None:
+            cand = ~remove & ~keep & (h > -cfg.support_band * fp.height) & (h <= STANDING * fp.height) & (d <= cfg.low_parts * fp.size)
+            idx = np.flatnonzero(cand)
+            if len(idx):
+                cand[idx[~nearer_object(means[idx], colours[idx], means[outer], colours[outer], means[standing], colours[standing])]] = False
+                low_parts = linked_growth(means, remove & (d <= cfg.low_parts * fp.size), cand, cfg.link * spacing(means[body]))
+            remove |= low_parts
+        counts.setdefault("footprint", []).append({"column": column_added, "support_kept": int(support.sum()), "height": fp.height, "size": fp.size,
                                                    "above_off_silhouette": dropped,
                                                    "support_beside": int(beside.sum()), "support_beside_under_plane": int((beside & (h < -cfg.support_band * fp.height)).sum()),
-                                                   "apart": int(apart.sum()), "apart_off_silhouette": apart_off, "support_beside_apart": int((beside & apart).sum())})  # fmt: skip
-        remove = (remove | column) & ~support
+                                                   "apart": int(apart.sum()), "apart_off_silhouette": apart_off, "support_beside_apart": int((beside & apart).sum()),
+                                                   "low_parts": int(low_parts.sum())})  # fmt: skip
         # The object's own low parts (a flat base, a rim lying on the support: below the outline's
         # standing share, not in the support's colours) covered support that is now empty: the
         # footprint widens to them, so the inpainting fills there on the plane (Sec. 3.4) like the
         # rest; the farthest 1 % are strays. Without colours, no low part is told from the support.
-        base = remove & body & (h > -cfg.footprint_depth * fp.height) & (h <= STANDING * fp.height) & (opacities > 0.1) & (d > 0)
+        base = remove & (body | low_parts) & (h > -cfg.footprint_depth * fp.height) & (h <= STANDING * fp.height) & (opacities > 0.1) & (d > 0)
         if colours is None:
             base[:] = False
         elif base.any():
@@ -194,6 +214,67 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
             base &= d <= np.quantile(d[base], 0.99)
         found.append(fp.widened(means[base]))
     return remove, found
+
+
+def spacing(points: np.ndarray) -> float:
+    """Median nearest-neighbour distance of ``points`` (0 for fewer than 2)."""
+    from scipy.spatial import cKDTree
+
+    if len(points) < 2:
+        return 0.0
+    return float(np.median(cKDTree(points).query(points, k=2)[0][:, 1]))
+
+
+def linked_growth(means: np.ndarray, seeds: np.ndarray, candidates: np.ndarray, radius: float) -> np.ndarray:
+    """(N,) bool: the ``candidates`` reached from the ``seeds`` by steps no longer than ``radius``
+    through candidates (a breadth-first growth over a k-d tree of the candidates' centres)."""
+    from scipy.spatial import cKDTree
+
+    out = np.zeros(len(means), dtype=bool)
+    cand = np.flatnonzero(candidates & ~seeds)
+    if not len(cand) or not seeds.any() or radius <= 0:
+        return out
+    tree = cKDTree(means[cand])
+    frontier = means[seeds]
+    while len(frontier):
+        hits = {j for near in tree.query_ball_point(frontier, radius) for j in near}
+        new = np.array(sorted(j for j in hits if not out[cand[j]]), dtype=np.int64)
+        if not len(new):
+            break
+        out[cand[new]] = True
+        frontier = means[cand[new]]
+    return out
+
+
+TINT = 0.03  # chromaticity shares closer than this are one tint (a grey object on a grey floor)
+
+
+def nearer_object(positions: np.ndarray, candidates: np.ndarray, ring_positions: np.ndarray, ring: np.ndarray, object_positions: np.ndarray,
+                  object_colours: np.ndarray, k: int = 8) -> np.ndarray:  # fmt: skip
+    """(M,) bool: which ``candidates`` (M, 3) colours at ``positions`` are nearer, in
+    :func:`chromaticity`, the median of their ``k`` nearest Gaussians of the object
+    (``object_positions``, ``object_colours``) than that of their ``k`` nearest ``ring`` Gaussians
+    of the support, and tinted apart from the support (farther than :data:`TINT`: a grey object on
+    a grey floor is never told from it this way). A textured support's colours
+    spread as far as an object's (a tooth of a yellow bucket lying on a woven pink mat is within
+    the mat's own spread), but next to the object a part of it looks like the object. Fewer than
+    k Gaussians on either side: False (nothing to compare with)."""
+    from scipy.spatial import cKDTree
+
+    if len(ring) < k or len(object_colours) < k or not len(candidates):
+        return np.zeros(len(candidates), dtype=bool)
+    c, r, o = chromaticity(candidates), chromaticity(ring), chromaticity(object_colours)
+    to_ring = np.linalg.norm(c - np.median(r[cKDTree(ring_positions).query(positions, k=k)[1]], axis=1), axis=1)
+    to_object = np.linalg.norm(c - np.median(o[cKDTree(object_positions).query(positions, k=k)[1]], axis=1), axis=1)
+    return (to_object < to_ring) & (to_ring > TINT)
+
+
+def chromaticity(colours: np.ndarray, floor: float = 0.15) -> np.ndarray:
+    """(M, 2) red and green shares of (M, 3) RGB colours, r / (r + g + b + floor): the same for a
+    surface lit or in shade (an object's shaded underside and its lit parts; a mat and the shadow
+    on it), while ``floor`` pulls near-black colours, whose shares are noise, towards grey's."""
+    total = colours.sum(axis=1, keepdims=True) + floor
+    return (colours[:, :2] + floor / 3) / total
 
 
 def support_coloured(candidates: np.ndarray, ring: np.ndarray, k: int = 8, quantile: float = 0.9) -> np.ndarray:

@@ -45,7 +45,7 @@ class Removal:
     objects: list[int]  # the selected object ids
     counts: dict = field(default_factory=dict)  # per object: by probability, by hull
     footprints: list = field(default_factory=list)  # per object: its core.support.Footprint (step 4), when found
-    # (N,) bool: what steps 1-2 took that stands higher than core.support.STANDING x the object's height over
+    # (N,) bool: what steps 1-2 took and the removal keeps taking that stands higher than core.support.STANDING x the object's height over
     # its footprint's plane (all of steps 1-2 without a footprint): the object as it stands, whose
     # silhouette the removal's masks are compared with (remove/stage.py, "over_removal")
     standing_mask: torch.Tensor | None = None
