@@ -29,7 +29,7 @@ class RemovalConfig:
     column_silhouette: float | None = 0.5  # step 4: over the object's top, a Gaussian goes when its centre lies in the object's silhouette in this share of the views showing it (None: all go)
     support_band: float = 0.05  # step 4: selected Gaussians within this x the object's height of the plane ...
     support_reach: float = 0.25  # ... farther than this x the footprint's size from its outline, in the support's colours around it, are support: they stay
-    low_parts: float | None = 0.25  # step 4: unselected Gaussians lower than core.support.STANDING x the object's height, linked to what goes, within this x the footprint's size of its outline and not in the support's colours next to them, are the object's low parts: they go (None: off)
+    low_parts: float | None = 0.25  # step 4: unselected Gaussians lower than core.support.STANDING x the object's height, linked to what goes, within this x the footprint's size of its outline and nearer the object's chromaticity than the support's, are the object's low parts: they go (None: off)
     mask_share: float = 0.5  # a pixel is to be filled when removed Gaussians gave it at least this share of its colour
 
     def validate(self) -> RemovalConfig:

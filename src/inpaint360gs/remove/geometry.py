@@ -116,7 +116,9 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
     higher than the object goes only when that share reaches ``cfg.column_silhouette`` (None: the
     whole column to its top; on and under the plane a Gaussian, the selection's own too, stays
     when its share of the silhouette of ``body`` standing above the plane is below it and it has
-    the colour of the support next to it). Returns the new flags and the footprints found;
+    the colour of the support next to it and not the object's). With ``cfg.low_parts``, low
+    unselected Gaussians linked to what goes and nearer the object's colour go too. Returns the new
+    flags and the footprints found;
     ``counts`` records what the step did (or why it did not)."""
     from inpaint360gs.core.support import STANDING, object_footprint
 
@@ -187,7 +189,7 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         remove = (remove | column) & ~support
         # The object's low parts the field gave to the background (a bucket's teeth lying on a mat,
         # a toy's feet on a sheet): beside the outline, lower than its standing share, linked to
-        # what goes and not in the colours of the support next to them, they go with the object.
+        # what goes and nearer the object's chromaticity than the support's, they go with the object.
         low_parts = np.zeros_like(remove)
         if cfg.low_parts is not None and colours is not None:
             cand = ~remove & ~keep & (h > -cfg.support_band * fp.height) & (h <= STANDING * fp.height) & (d <= cfg.low_parts * fp.size)

@@ -14,7 +14,8 @@ Steps, each with its :class:`~.config.RemovalConfig` switch:
    only through upright Gaussians;
 4. every Gaussian in the footprint column over the object's outline on its support plane
    (``footprint_margin``), other objects excepted; selected support far from the outline stays,
-   and so does support on or under the plane that the views see beside the object.
+   and so does support on or under the plane that the views see beside the object; the object's
+   low parts the field gave to the background, linked to it and in its colours, go (``low_parts``).
 
 Pixels to fill (the AMCR masks, supp. Eq. 1): per training view, the pixels at least ``mask_share``
 of whose colour the removed Gaussians gave in the original model.
