@@ -158,3 +158,25 @@ def test_sigterm_after_the_cli_still_is_one_line(chains, tmp_path):
     _, err = p.communicate(timeout=60)
     assert p.returncode == 143 and len(err.strip().splitlines()) == 1 and "terminated" in err, err
     assert not (tmp_path / "out").exists() and tree(tmp_path) == {}
+
+
+def test_a_signal_raised_inside_a_compiled_kernel_still_reads_as_the_signal():
+    """A SIGTERM handler's exception raised while a numba kernel returns reaches the CLI as a
+    SystemError chained to it ("returned a result with an exception set"); the CLI must read the
+    chain and report "terminated" (exit 143), not an internal error."""
+    from inpaint360gs.cli.common import _interruption
+    from inpaint360gs.core.errors import Terminated
+
+    def wrapped(inner: BaseException) -> SystemError:
+        try:
+            try:
+                raise inner
+            except BaseException as t:
+                raise SystemError("returned a result with an exception set") from t
+        except SystemError as e:
+            return e
+
+    assert isinstance(_interruption(wrapped(Terminated())), Terminated)
+    assert isinstance(_interruption(wrapped(KeyboardInterrupt())), KeyboardInterrupt)
+    assert _interruption(wrapped(ValueError("a bug"))) is None
+    assert _interruption(ValueError("a bug")) is None

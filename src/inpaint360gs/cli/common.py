@@ -51,6 +51,19 @@ def _on_sigterm(signum, frame):
     raise Terminated()
 
 
+def _interruption(e: BaseException) -> BaseException | None:
+    """The :class:`Terminated` or ``KeyboardInterrupt`` that ``e`` was raised from, if any: a signal
+    handler's exception raised while a numba kernel returns comes back as a ``SystemError``
+    ("returned a result with an exception set") chained to it."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, (Terminated, KeyboardInterrupt)):
+            return e
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return None
+
+
 def install_signal_handlers() -> None:
     """SIGTERM -> :class:`Terminated`, SIGINT -> ``KeyboardInterrupt`` (after pycolmap's import, which
     installs glog's failure handler for SIGTERM)."""
@@ -205,6 +218,11 @@ def run_stages(prog: str, stages: dict[str, tuple[str, str]], argv: list[str] | 
         print(f"{where}: error: {_out_of_memory(e)}", file=sys.stderr)
         return EXIT_INPUT
     except Exception as e:  # a bug: still one line, the traceback on request
+        signal_exc = _interruption(e)
+        if signal_exc is not None:  # the signal's exception raised inside a compiled kernel's return (numba's SystemError wraps it)
+            kind, code = ("terminated", EXIT_SIGTERM) if isinstance(signal_exc, Terminated) else ("interrupted", EXIT_SIGINT)
+            print(f"{where}: {kind} (partial outputs removed; rerun to continue)", file=sys.stderr)
+            return code
         if isinstance(e, RuntimeError) and _ALLOC_FAILED.search(str(e)):  # torch's allocator (CPU or CUDA): a resource, not a bug
             print(f"{where}: error: {_out_of_memory(e)}", file=sys.stderr)
             return EXIT_INPUT
