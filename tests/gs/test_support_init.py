@@ -60,3 +60,59 @@ def test_nothing_is_added_where_the_points_cover_the_photos():
     xyz, _ = support_points(cams, images, np.concatenate([pts, disc]), SupportInit(cell_px=4))
     assert len(xyz) < 10
     assert support_points(cams, images, pts[:2])[0].shape == (0, 3)  # too few points for a plane: nothing
+
+
+def _fake_scene(cams, pts, grey):
+    """What :func:`with_support_points` reads of a scene."""
+    import torch
+    from types import SimpleNamespace
+
+    views = [SimpleNamespace(camera=c) for c in cams]
+    return SimpleNamespace(
+        train_views=views, load_image=lambda v: torch.full((120, 160, 3), grey), points=torch.from_numpy(pts).float(),
+        point_colors=torch.full((len(pts), 3), grey),
+    )  # fmt: skip
+
+
+def test_auto_adds_the_points_on_a_plain_support_only():
+    """The share of the support's cells that no SfM point covers decides "auto": the plain middle of
+    the closed-form floor is most of what the cameras see of it; with points on it, nothing is uncovered."""
+    from inpaint360gs.gs.support_init import with_support_points
+
+    rng = np.random.default_rng(2)
+    cams, pts = _scene(rng)
+    pts = pts[(np.hypot(pts[:, 0], pts[:, 1]) > 1.0) | (pts[:, 2] > 0)]  # plain within 1.0 of the 1.2 the cameras' reach covers
+    stats = {}
+    support_points(cams, [np.full((120, 160, 3), 0.8)] * len(cams), pts, SupportInit(cell_px=4), stats)
+    assert 0 < stats["uncovered_support_cells"] < stats["support_cells"]
+    plain = _fake_scene(cams, pts, 0.8)
+    p, c, report = with_support_points(plain, SupportInit(cell_px=4), auto=True)
+    assert report["support_uncovered"] >= SupportInit().plain_share  # plain: most of the floor's cells in view are uncovered
+    assert report["support_points"] == len(p) - len(pts) > 200
+    middle = np.sqrt(rng.uniform(0.0, 1.0, 12000)), rng.uniform(0, 2 * np.pi, 12000)
+    disc = np.c_[middle[0] * np.cos(middle[1]), middle[0] * np.sin(middle[1]), np.zeros(12000)]
+    disc = disc[(np.abs(disc[:, 0]) > BOX) | (np.abs(disc[:, 1]) > BOX)]
+    textured = _fake_scene(cams, np.concatenate([pts, disc]), 0.5)
+    p, _, report = with_support_points(textured, SupportInit(cell_px=4), auto=True)
+    assert report["support_uncovered"] < 0.05 and report["support_points"] == 0 and len(p) == len(pts) + len(disc)
+
+
+def test_support_init_modes_and_the_settings_written_before_them():
+    import pytest
+
+    import argparse
+
+    from inpaint360gs.cli import run as run_cli, train as train_cli
+    from inpaint360gs.core.errors import InputError
+    from inpaint360gs.gs.config import TrainConfig
+
+    assert TrainConfig().support_init == "auto"
+    assert TrainConfig.from_dict({"support_init": True}).support_init == "on"
+    assert TrainConfig.from_dict({"support_init": False}).support_init == "off"
+    with pytest.raises(InputError, match="support init"):
+        TrainConfig(support_init="yes").validate()
+    for cli in (train_cli, run_cli):
+        parser = argparse.ArgumentParser()
+        cli.add_arguments(parser)
+        for argv, mode in (([], "auto"), (["--support-init"], "on"), (["--support-init", "off"], "off")):
+            assert parser.parse_args([".", "out", *argv]).support_init == mode

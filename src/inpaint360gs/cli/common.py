@@ -343,6 +343,15 @@ def add_scene_arguments(parser: argparse.ArgumentParser, *, llffhold: bool = Tru
                             help=f"every Nth non-test view is held out of training (default {defaults['llffhold']}; 0: none; the later stages take the value training took)")  # fmt: skip
 
 
+def add_support_init_argument(parser: argparse.ArgumentParser, default: str) -> None:
+    """Add ``--support-init {auto,on,off}`` (3DGS's start from support points; ``--support-init`` alone: on)."""
+    parser.add_argument(
+        "--support-init", nargs="?", const="on", default=default, choices=("auto", "on", "off"),
+        help="3DGS also starts from points on the support plane where the SfM points leave the photos uncovered: "
+        f"on, off, or auto (on when most of the support's cells are uncovered: a plain support; default {default})",
+    )  # fmt: skip
+
+
 def add_threads_argument(parser: argparse.ArgumentParser) -> None:
     """Add ``--threads`` (CPU threads for torch and numba; default: the usable cores) to ``parser``."""
     default = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)

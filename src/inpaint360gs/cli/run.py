@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, add_threads_argument, check_apart, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
+from inpaint360gs.cli.common import add_backend_argument, add_scene_arguments, add_support_init_argument, add_threads_argument, check_apart, existing_dir, existing_file, nonneg_int, output_dir, positive_int, set_threads
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -17,6 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     from inpaint360gs.cli.inpaint import add_inpaint_arguments
     from inpaint360gs.cli.remove import add_click_arguments
     from inpaint360gs.distill.config import DistillConfig
+    from inpaint360gs.gs.config import TrainConfig
     from inpaint360gs.pipeline.presets import DEFAULT_PRESET, PRESETS, SUMMARIES
     from inpaint360gs.pipeline.run import STAGES
     from inpaint360gs.segment.base import DEFAULT_SEGMENTER, segmenter_names
@@ -30,8 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--preset", default=DEFAULT_PRESET, choices=list(PRESETS), help=f"training budget and backend (default {DEFAULT_PRESET}; {presets})")
     parser.add_argument("--iterations", type=positive_int, default=None, help="3DGS steps, the schedule scaled to them (default: the preset's)")
     parser.add_argument("--max-gaussians", type=nonneg_int, default=None, help="3DGS cap (default: the preset's; 0: none)")
-    parser.add_argument("--support-init", action="store_true",
-                        help="3DGS also starts from points on the support plane where the SfM points leave the photos uncovered (plain supports)")
+    add_support_init_argument(parser, TrainConfig().support_init)
     parser.add_argument("--segmenter", default=DEFAULT_SEGMENTER, choices=segmenter_names(), help=f"2D masks (default {DEFAULT_SEGMENTER}; oracle reads gt/ of synthetic scenes)")
     parser.add_argument("--association", default="kom", choices=["kom", "tracker"], help="Key Object Management (default) or 2D tracking (ablation a)")
     parser.add_argument("--distill-iterations", type=positive_int, default=DistillConfig().iterations)
@@ -55,8 +55,7 @@ def run_config(args: argparse.Namespace):
     preset = get_preset(args.preset)
     backend = preset.backend if args.backend is None else args.backend
     cfg = with_budget(preset, iterations=args.iterations, max_gaussians=args.max_gaussians)
-    if args.support_init:
-        cfg = replace(cfg, train=replace(cfg.train, support_init=True))
+    cfg = replace(cfg, train=replace(cfg.train, support_init=args.support_init))
     return replace(cfg, seed=args.seed, backend=backend, segmenter=args.segmenter, association=AssociationConfig(method=args.association).resolved(),
                    distill=replace(cfg.distill, iterations=args.distill_iterations), inpaint=inpaint_config(args, args.seed, backend))  # fmt: skip
 

@@ -7,6 +7,7 @@ import argparse
 from inpaint360gs.cli.common import (
     add_backend_argument,
     add_scene_arguments,
+    add_support_init_argument,
     add_threads_argument,
     check_apart,
     existing_dir,
@@ -49,10 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=nonneg_int, default=d.seed)
     parser.add_argument("--sh-degree", type=nonneg_int, default=d.sh_degree, help="highest SH degree (default 3)")
     parser.add_argument("--random-background", action="store_true", help="a random background colour every step")
-    parser.add_argument(
-        "--support-init", action="store_true",
-        help="also start from points on the support plane where the SfM points leave the photos uncovered (plain supports; default off)",
-    )  # fmt: skip
+    add_support_init_argument(parser, d.support_init)
     parser.add_argument("--white-background", action="store_true", help="render on white instead of black")
     parser.add_argument("--eval-every", type=nonneg_int, default=d.eval_every, help="held-out PSNR/SSIM into train_log.csv every N steps (0: end only)")
     parser.add_argument("--checkpoint-every", type=nonneg_int, default=d.checkpoint_every, help="steps between checkpoints (0: only at the end)")

@@ -14,6 +14,7 @@ import dataclasses
 from dataclasses import dataclass, field
 
 ORIGINAL_ITERATIONS = 30_000
+SUPPORT_INIT_MODES = ("auto", "on", "off")
 
 
 def _scale_steps(steps: int, scale: float) -> int:
@@ -71,8 +72,9 @@ class TrainConfig:
     sh_degree_interval: int = 1000  # steps
     init_opacity: float = 0.1  # initial opacity of every Gaussian, in (0, 1)
     # Not in the original: also start from points on the support plane where the SfM points leave
-    # cells of the training photos uncovered (a plain sheet or table; gs/support_init.py)
-    support_init: bool = False
+    # cells of the training photos uncovered (a plain sheet or table; gs/support_init.py): "on",
+    # "off", or "auto" (on when the support is plain: most of the cells that show it uncovered)
+    support_init: str = "auto"  # auto | on | off
     # Adam learning rates per parameter; positions decay exponentially and scale with the scene extent
     means_lr_init: float = 1.6e-4  # x scene extent, at step 0
     means_lr_final: float = 1.6e-6  # x scene extent, at ``means_lr_max_steps``
@@ -108,6 +110,8 @@ class TrainConfig:
             raise InputError(f"max Gaussians must be >= 0 (0: no cap), got {self.densify.max_gaussians}", setting="DensifyConfig.max_gaussians")
         if not 0 <= self.sh_degree <= 3:
             raise InputError(f"SH degree must be in 0..3, got {self.sh_degree}", setting="TrainConfig.sh_degree")
+        if self.support_init not in SUPPORT_INIT_MODES:
+            raise InputError(f"support init must be one of {', '.join(SUPPORT_INIT_MODES)}, got {self.support_init!r}", setting="TrainConfig.support_init")
         if self.backend not in ("auto", "torch", "numba", "gsplat"):
             raise InputError(f"unknown backend {self.backend!r}", setting="TrainConfig.backend")
 
@@ -137,4 +141,6 @@ class TrainConfig:
         dens = DensifyConfig(**d.pop("densify", {}))
         if "background" in d:
             d["background"] = tuple(d["background"])
+        if isinstance(d.get("support_init"), bool):  # written before "auto" existed
+            d["support_init"] = "on" if d["support_init"] else "off"
         return TrainConfig(densify=dens, **d)

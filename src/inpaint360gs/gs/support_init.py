@@ -43,6 +43,9 @@ class SupportInit:
     plane_tries: int = 2000  # RANSAC samples
     front_margin: float = 0.05  # a standing SfM point nearer than (1 - this) x the plane hit's depth hides it ...
     stand: float = 0.02  # ... standing: higher above the plane than this x the median camera distance
+    # "auto": a support is plain when at least this share of the cells that show it (the centre ray
+    # meets it within reach, unhidden) hold no SfM point
+    plain_share: float = 0.5
 
 
 @dataclass(frozen=True)
@@ -102,10 +105,14 @@ def support_points(
     images: Sequence[np.ndarray],
     points: np.ndarray,
     cfg: SupportInit | None = None,
+    stats: dict | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(xyz (M, 3), rgb (M, 3) in [0, 1]) on the support plane where the SfM ``points`` (P, 3) leave
     cells of the training ``cameras``' ``images`` ((H, W, 3) floats in [0, 1], one per camera)
-    uncovered. Empty arrays when the plane cannot be fitted (fewer than three points, no plane)."""
+    uncovered. Empty arrays when the plane cannot be fitted (fewer than three points, no plane).
+    ``stats``, when given, receives ``support_cells`` (cells of all views whose centre ray meets the
+    support within reach, unhidden) and ``uncovered_support_cells`` (those of them no SfM point
+    covers: the points' cells before merging)."""
     from inpaint360gs.core.errors import InputError
 
     cfg = cfg or SupportInit()
@@ -126,25 +133,16 @@ def support_points(
     standing = pts @ n - d > cfg.stand * frame.camera_distance
     look = frame.look_at - (frame.look_at @ n - d) * n  # the look-at point dropped onto the plane
     xyz, rgb, size = [], [], []
+    cells = [0, 0]  # the cells that show the support, and those of them no SfM point covers
     c = int(cfg.cell_px)
     for cam, img in zip(cameras, images):
         R, t = cam.R.double().numpy(), cam.t.double().numpy()
         W, H = cam.width, cam.height
         gw, gh = -(-W // c), -(-H // c)
         # SfM points in this view: covered cells (grown by one cell) and the nearest depth per cell
-        pc = pts @ R.T + t
-        z = pc[:, 2]
-        ok = z > 1e-9
-        u = cam.fx * pc[ok, 0] / z[ok] + cam.cx
-        v = cam.fy * pc[ok, 1] / z[ok] + cam.cy
-        inside = (u >= 0) & (u < W) & (v >= 0) & (v < H)
-        cu, cv, cz = (u[inside] // c).astype(int), (v[inside] // c).astype(int), z[ok][inside]
-        up_ = standing[ok][inside]
-        near = np.full((gh + 2, gw + 2), np.inf)  # per cell, padded by one: the nearest SfM depth within one cell
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                np.minimum.at(near, (cv + 1 + dy, cu + 1 + dx), cz)
-        near = near[1:-1, 1:-1]
+        cu, cv, cz, seen = _cells(cam, pts, c)
+        up_ = standing[seen]
+        near = _nearest_in_cells(cu, cv, cz, gw, gh)
         ii, jj = np.divmod(np.arange(gh * gw), gw)  # every cell (row, column); the uncovered ones are kept below
         # the cell centres' rays and their hits on the plane
         px, py = (jj + 0.5) * c, (ii + 0.5) * c
@@ -157,23 +155,26 @@ def support_points(
             depth = (d - o @ n) / denom  # camera z of the hit
         hit = o + depth[:, None] * dirs
         along = np.linalg.norm((hit - look) - np.outer((hit - look) @ n, n), axis=1)
-        keep = np.isfinite(depth) & (depth > 0) & (along <= cfg.reach * frame.radius)
-        nd = near[ii, jj]
-        keep &= ~np.isfinite(nd)  # uncovered: no SfM point within one cell
-        if not keep.any():
-            continue
+        on_support = np.isfinite(depth) & (depth > 0) & (along <= cfg.reach * frame.radius)
         # no standing SfM point two cells around lies clearly in front of the hit (the cell then shows what stands on the support)
         front = np.full((gh + 4, gw + 4), np.inf)
         for dy in range(-2, 3):
             for dx in range(-2, 3):
                 np.minimum.at(front, (cv[up_] + 2 + dy, cu[up_] + 2 + dx), cz[up_])
-        keep &= ~(front[ii + 2, jj + 2] < (1.0 - cfg.front_margin) * depth)
+        on_support &= ~(front[ii + 2, jj + 2] < (1.0 - cfg.front_margin) * depth)
+        keep = on_support & ~np.isfinite(near[ii, jj])  # uncovered: no SfM point within one cell
+        cells[0] += int(on_support.sum())
+        cells[1] += int(keep.sum())
+        if not keep.any():
+            continue
         im = np.asarray(img, dtype=np.float64)
         for k in np.nonzero(keep)[0]:
             y0, x0 = ii[k] * c, jj[k] * c
             rgb.append(im[y0 : y0 + c, x0 : x0 + c].reshape(-1, 3).mean(0))
         xyz.append(hit[keep])
         size.append(depth[keep] * c / cam.fx)  # the cell's footprint on the plane (at normal incidence)
+    if stats is not None:
+        stats.update(support_cells=cells[0], uncovered_support_cells=cells[1])
     if not xyz:
         return empty
     xyz, rgb, size = np.concatenate(xyz), np.asarray(rgb), np.concatenate(size)
@@ -185,13 +186,58 @@ def support_points(
     return (local - [0.0, 0.0, 0.5 * step]) @ basis + look, np.clip(rgb, 0.0, 1.0)
 
 
-def with_support_points(scene, cfg: SupportInit | None = None) -> tuple[torch.Tensor, torch.Tensor, int]:
-    """The scene's SfM points and colours with :func:`support_points` appended, and how many were added."""
+def _cells(cam: Camera, pts: np.ndarray, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The cells (column, row) of ``c``-px side into which ``pts`` project in ``cam``'s image, their
+    camera depths, and which of ``pts`` those are (a boolean mask)."""
+    R, t = cam.R.double().numpy(), cam.t.double().numpy()
+    pc = pts @ R.T + t
+    z = pc[:, 2]
+    ok = z > 1e-9
+    u = cam.fx * pc[ok, 0] / z[ok] + cam.cx
+    v = cam.fy * pc[ok, 1] / z[ok] + cam.cy
+    inside = (u >= 0) & (u < cam.width) & (v >= 0) & (v < cam.height)
+    seen = np.zeros(len(pts), bool)
+    seen[np.flatnonzero(ok)[inside]] = True
+    return (u[inside] // c).astype(int), (v[inside] // c).astype(int), z[ok][inside], seen
+
+
+def _nearest_in_cells(cu: np.ndarray, cv: np.ndarray, cz: np.ndarray, gw: int, gh: int) -> np.ndarray:
+    """(gh, gw) nearest depth of a point within one cell of each cell (inf: none)."""
+    near = np.full((gh + 2, gw + 2), np.inf)  # padded by one
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            np.minimum.at(near, (cv + 1 + dy, cu + 1 + dx), cz)
+    return near[1:-1, 1:-1]
+
+
+def uncovered_share(cameras: Sequence[Camera], points: np.ndarray, cell_px: int = SupportInit.cell_px) -> float:
+    """The share of the ``cameras``' image cells (``cell_px`` side) with no SfM point ``points``
+    (P, 3) projected within one cell, over all cameras: how much of the photos a start from the
+    SfM points leaves without a Gaussian."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    empty = total = 0
+    for cam in cameras:
+        gw, gh = -(-cam.width // cell_px), -(-cam.height // cell_px)
+        cu, cv, cz, _ = _cells(cam, pts, cell_px)
+        empty += int(np.isinf(_nearest_in_cells(cu, cv, cz, gw, gh)).sum())
+        total += gw * gh
+    return empty / max(total, 1)
+
+
+def with_support_points(scene, cfg: SupportInit | None = None, *, auto: bool = False) -> tuple[torch.Tensor, torch.Tensor, dict]:
+    """The scene's SfM points and colours with :func:`support_points` appended, and a report:
+    ``support_points`` (how many were added) and ``support_uncovered`` (the share of the cells
+    showing the support that no SfM point covers). With ``auto``, the points are added only on a
+    plain support: a share of at least ``plain_share``."""
+    cfg = cfg or SupportInit()
     views = list(scene.train_views)
     images = [scene.load_image(v).numpy() for v in views]
-    xyz, rgb = support_points([v.camera for v in views], images, scene.points.double().numpy(), cfg)
-    if not len(xyz):
-        return scene.points, scene.point_colors, 0
+    stats: dict = {}
+    xyz, rgb = support_points([v.camera for v in views], images, scene.points.double().numpy(), cfg, stats)
+    share = stats.get("uncovered_support_cells", 0) / max(stats.get("support_cells", 0), 1)
+    report = {"support_uncovered": round(share, 4), "support_points": 0}
+    if not len(xyz) or (auto and share < cfg.plain_share):
+        return scene.points, scene.point_colors, report
     pts = torch.cat([scene.points.float(), torch.from_numpy(xyz).float()])
     cols = torch.cat([scene.point_colors.float(), torch.from_numpy(rgb).float()])
-    return pts, cols, len(xyz)
+    return pts, cols, {**report, "support_points": len(xyz)}

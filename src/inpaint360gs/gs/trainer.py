@@ -62,17 +62,21 @@ class TrainResult:
     steps: int  # optimiser steps done in all (resumed ones included)
 
 
-def init_gaussians(scene: Scene, cfg: TrainConfig) -> Gaussians:
-    """3DGS initialisation from the sparse points (with ``support_init``, also points on the support
-    where they leave the photos uncovered: :mod:`inpaint360gs.gs.support_init`): isotropic 3-NN
-    scales, opacity ``init_opacity``."""
+def init_gaussians(scene: Scene, cfg: TrainConfig, info: dict | None = None) -> Gaussians:
+    """3DGS initialisation from the sparse points (with ``support_init`` on, or auto on a plain
+    support, also points on the support where they leave the photos uncovered:
+    :mod:`inpaint360gs.gs.support_init`): isotropic 3-NN scales, opacity ``init_opacity``. ``info``,
+    when given, receives what the support points did (``support_init``: their mode, ``support_points``:
+    how many were added, ``support_uncovered``: the share of the support's cells no SfM point covers)."""
     if scene.points.shape[0] == 0:
         raise InputError("the sparse model has no 3D points to initialise Gaussians from", scene.root / "sparse" / "0")
     points, colors = scene.points, scene.point_colors
-    if cfg.support_init:
+    if cfg.support_init != "off":
         from inpaint360gs.gs.support_init import with_support_points
 
-        points, colors, _ = with_support_points(scene)
+        points, colors, report = with_support_points(scene, auto=cfg.support_init == "auto")
+        if info is not None:
+            info.update(support_init=cfg.support_init, **report)
     return Gaussians.from_points(points, colors, sh_degree=cfg.sh_degree, init_opacity=cfg.init_opacity)
 
 
@@ -145,8 +149,9 @@ class Trainer:
         self.resumed_from: int | None = None
         lrs: dict[str, float | Callable[[int], float]] = dict(learning_rates(cfg, self.extent))
         lrs["means"] = lambda step: means_lr(step, cfg, self.extent)  # exponential decay (3DGS)
+        self.init_info: dict = {}
         self.loop = OptimizationLoop(
-            init_gaussians(self.scene, cfg).to(self.device),
+            init_gaussians(self.scene, cfg, self.init_info).to(self.device),
             train=lrs,
             views=self.source,
             render_fn=self._render,
@@ -341,6 +346,7 @@ class Trainer:
             "threads": torch.get_num_threads(),
             "seed": cfg.seed,
             "resumed_from_step": self.resumed_from,  # None: trained from step 0 in one go
+            "init": {"sfm_points": int(self.scene.points.shape[0]), **self.init_info},
             "per_view": ev["per_view"],
             # what the model was made from (docs/architecture.md, "Provenance chain")
             provenance.KEY: provenance.make("train", self.scene, {}, self.user_cfg.to_dict()),
