@@ -12,7 +12,7 @@ failed (exit 4) keeps its folder for inspection and is scored all the same.
 
     inpaint360gs-dataset synth data/dev --scenes teapot-test2 dozer-test1 duck-dev1
     python benchmarks/bench_removal_seeds.py data/dev runs/dev --scenes teapot-test2 dozer-test1 duck-dev1 --seeds 0 1 2
-    python benchmarks/bench_removal_seeds.py data/dev runs/dev-support --scenes plush-dev1 --extra=--support-init
+    python benchmarks/bench_removal_seeds.py data/dev runs/dev-sfm-only --scenes plush-dev1 "--extra=--support-init off"
 """
 
 from __future__ import annotations
@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="+", required=True)
     ap.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--extra", default="", help="extra options for every `inpaint360gs run`, one string (e.g. --extra=--support-init; use another OUT)")
+    ap.add_argument("--extra", default="", help="extra options for every `inpaint360gs run`, one string (e.g. '--extra=--support-init off'; use another OUT)")
     a = ap.parse_args(argv)
     missing = [s for s in a.scenes if not (a.data / s / "scene.json").is_file()]
     if missing:

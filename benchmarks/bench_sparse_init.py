@@ -11,7 +11,10 @@ twin is what a good SfM cloud would give; the gap in held-out PSNR is what the s
 budget unless ``--iterations``/``--extra`` say otherwise). Prints one row per run and the gap per seed.
 
     python benchmarks/bench_sparse_init.py data/plush-dev1 --work outputs/bench_sparse_init --seeds 0 1 2
-    python benchmarks/bench_sparse_init.py data/plush-dev1 --work outputs/bench_sparse_init --seeds 0 1 2 --extra=--support-init --tag=-support
+    python benchmarks/bench_sparse_init.py data/plush-dev1 --work outputs/bench_sparse_init --seeds 0 1 2 "--extra=--support-init off" --tag=-sfm-only
+
+The SfM-start runs take ``train``'s default ``--support-init auto`` (on a plain support: the support
+points); ``--support-init off`` gives the bare SfM start.
 
 ``--extra`` goes to the SfM-start runs only (what is being tried on the sparse start); the dense
 twin's runs always use the plain settings and are reused when their folder holds a finished run.

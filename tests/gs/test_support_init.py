@@ -4,7 +4,12 @@ box standing in the middle with points on its faces, cameras circling it."""
 
 from __future__ import annotations
 
+import argparse
+from types import SimpleNamespace
+
 import numpy as np
+import pytest
+import torch
 
 from inpaint360gs.core.camera import Camera
 from inpaint360gs.gs.support_init import SupportInit, support_points
@@ -64,9 +69,6 @@ def test_nothing_is_added_where_the_points_cover_the_photos():
 
 def _fake_scene(cams, pts, grey):
     """What :func:`with_support_points` reads of a scene."""
-    import torch
-    from types import SimpleNamespace
-
     views = [SimpleNamespace(camera=c) for c in cams]
     return SimpleNamespace(
         train_views=views, load_image=lambda v: torch.full((120, 160, 3), grey), points=torch.from_numpy(pts).float(),
@@ -98,10 +100,6 @@ def test_auto_adds_the_points_on_a_plain_support_only():
 
 
 def test_support_init_modes_and_the_settings_written_before_them():
-    import pytest
-
-    import argparse
-
     from inpaint360gs.cli import run as run_cli, train as train_cli
     from inpaint360gs.core.errors import InputError
     from inpaint360gs.gs.config import TrainConfig

@@ -210,20 +210,6 @@ def _nearest_in_cells(cu: np.ndarray, cv: np.ndarray, cz: np.ndarray, gw: int, g
     return near[1:-1, 1:-1]
 
 
-def uncovered_share(cameras: Sequence[Camera], points: np.ndarray, cell_px: int = SupportInit.cell_px) -> float:
-    """The share of the ``cameras``' image cells (``cell_px`` side) with no SfM point ``points``
-    (P, 3) projected within one cell, over all cameras: how much of the photos a start from the
-    SfM points leaves without a Gaussian."""
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    empty = total = 0
-    for cam in cameras:
-        gw, gh = -(-cam.width // cell_px), -(-cam.height // cell_px)
-        cu, cv, cz, _ = _cells(cam, pts, cell_px)
-        empty += int(np.isinf(_nearest_in_cells(cu, cv, cz, gw, gh)).sum())
-        total += gw * gh
-    return empty / max(total, 1)
-
-
 def with_support_points(scene, cfg: SupportInit | None = None, *, auto: bool = False) -> tuple[torch.Tensor, torch.Tensor, dict]:
     """The scene's SfM points and colours with :func:`support_points` appended, and a report:
     ``support_points`` (how many were added) and ``support_uncovered`` (the share of the cells
