@@ -176,3 +176,25 @@ def test_trajectory_refuses_an_object_seen_from_nowhere():
     train = orbit_cameras(8, radius=4.0, height=2.0)
     with pytest.raises(InputError, match="not visible from any virtual camera"):
         choose_trajectory(train, np.zeros(3), lambda cams: [0.0] * len(cams), VirtualViewsConfig(num_views=4))
+
+
+def test_footprint_leaves_out_a_haze_in_front_of_the_camera():
+    """A faint haze near a camera gives every pixel part of its colour: the object behind it then
+    gives less than half anywhere and its footprint is empty, unless what lies nearer than half the
+    object's depth is left out (``near``)."""
+    from inpaint360gs.core.camera import Camera
+    from inpaint360gs.core.gaussians import SH_C0
+    from inpaint360gs.views.unseen import footprint
+
+    cam = Camera.look_at((0.0, -4.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 60.0, 60.0, 32.0, 24.0, 64, 48, name="v")
+    means = torch.tensor([[0.0, 0.0, 0.0], [0.0, -3.0, 0.0], [0.0, 2.0, 0.0]])  # the object; a haze 1 from the camera; a wall behind
+    scales = torch.tensor([[0.3, 0.3, 0.3], [2.0, 0.05, 2.0], [6.0, 0.05, 6.0]])
+    g = Gaussians(means=means, log_scales=scales.log(), quats=torch.tensor([[1.0, 0.0, 0.0, 0.0]]).repeat(3, 1),
+                  opacity_logits=torch.logit(torch.tensor([0.99, 0.6, 0.99])), sh0=((torch.full((3, 3), 0.5) - 0.5) / SH_C0)[:, None],
+                  shN=torch.zeros(3, 0, 3))  # fmt: skip
+    removed = torch.tensor([True, False, False])
+    assert not footprint(g, removed, cam).any()  # the haze takes 60 % of every pixel first
+    fp = footprint(g, removed, cam, near=0.5)
+    assert fp[24, 32] and 20 < fp.sum() < 0.3 * fp.size  # the object's disc, not the whole view
+    without_haze = footprint(g.subset(torch.tensor([True, False, True])), torch.tensor([True, False]), cam)
+    np.testing.assert_array_equal(fp, without_haze)

@@ -125,9 +125,25 @@ def rendered_share(model: Gaussians, flags: torch.Tensor | np.ndarray, camera: C
         return render(g, camera, with_features=True, backend=backend).features[..., 0].cpu().numpy()
 
 
-def footprint(model: Gaussians, removed: torch.Tensor, camera: Camera, share: float = 0.5, backend: str = "auto") -> np.ndarray:
-    """Pixels at least ``share`` of whose colour the Gaussians flagged in ``removed`` gave (full model)."""
-    return rendered_share(model, removed, camera, backend) >= share
+def footprint(model: Gaussians, removed: torch.Tensor, camera: Camera, share: float = 0.5, backend: str = "auto",
+              near: float | None = None) -> np.ndarray:  # fmt: skip
+    """Pixels at least ``share`` of whose colour the Gaussians flagged in ``removed`` gave (full model).
+
+    ``near``: leave out the Gaussians nearer to ``camera`` than this x the median camera depth of the
+    removed ones in front of it (None: none left out). A haze of floaters hanging in front of a
+    camera (3DGS leaves them near views it was not trained on) gives every pixel of such a view a
+    share of its colour, so that the object behind it gives less than ``share`` anywhere and its
+    footprint is empty; what lies between the camera and half the object's distance is not the
+    object's surroundings either way."""
+    if near is None:
+        return rendered_share(model, removed, camera, backend) >= share
+    flags = torch.as_tensor(removed, dtype=torch.bool).cpu()
+    z = project(camera, model.means.detach().cpu().double().numpy())[2]
+    zr = z[flags.numpy() & (z > 1e-6)]
+    if not len(zr):
+        return np.zeros((camera.height, camera.width), dtype=bool)
+    keep = torch.from_numpy(z >= near * float(np.median(zr))).to(flags.device)
+    return rendered_share(model.subset(keep), flags[keep], camera, backend) >= share
 
 
 def share_in_front(model: Gaussians, camera: Camera, planes: Sequence[tuple[np.ndarray, float]], margin: float = 0.03, backend: str = "auto") -> np.ndarray:
