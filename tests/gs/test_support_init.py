@@ -90,13 +90,13 @@ def test_auto_adds_the_points_on_a_plain_support_only():
     plain = _fake_scene(cams, pts, 0.8)
     p, c, report = with_support_points(plain, SupportInit(cell_px=4), auto=True)
     assert report["support_uncovered"] >= SupportInit().plain_share  # plain: most of the floor's cells in view are uncovered
-    assert report["support_points"] == len(p) - len(pts) > 200
+    assert report["support_points"] > 200 and report["support_points"] + report["backdrop_points"] == len(p) - len(pts)
     middle = np.sqrt(rng.uniform(0.0, 1.0, 12000)), rng.uniform(0, 2 * np.pi, 12000)
     disc = np.c_[middle[0] * np.cos(middle[1]), middle[0] * np.sin(middle[1]), np.zeros(12000)]
     disc = disc[(np.abs(disc[:, 0]) > BOX) | (np.abs(disc[:, 1]) > BOX)]
     textured = _fake_scene(cams, np.concatenate([pts, disc]), 0.5)
     p, _, report = with_support_points(textured, SupportInit(cell_px=4), auto=True)
-    assert report["support_uncovered"] < 0.05 and report["support_points"] == 0 and len(p) == len(pts) + len(disc)
+    assert report["support_uncovered"] < 0.05 and report["support_points"] == report["backdrop_points"] == 0 and len(p) == len(pts) + len(disc)
 
 
 def test_support_init_modes_and_the_settings_written_before_them():
@@ -114,3 +114,27 @@ def test_support_init_modes_and_the_settings_written_before_them():
         cli.add_arguments(parser)
         for argv, mode in (([], "auto"), (["--support-init"], "on"), (["--support-init", "off"], "off")):
             assert parser.parse_args([".", "out", *argv]).support_init == mode
+
+
+def test_backdrop_cells_get_points_at_the_depth_their_neighbours_agree_on():
+    """Beyond the support (a wall round the closed-form floor, 4 from its centre), a cell holding no
+    SfM point gets one at the median depth of the points a few cells around it when they lie on one
+    surface; where they do not (the floor's edge against the wall), or too few are near, none."""
+    from inpaint360gs.gs.support_init import thin_backdrop
+
+    rng = np.random.default_rng(3)
+    cams, pts = _scene(rng)
+    a, z = rng.uniform(0, 2 * np.pi, 6000), rng.uniform(0.0, 3.0, 6000)
+    wall = np.c_[4.0 * np.cos(a), 4.0 * np.sin(a), z]  # sparse: about one point in three of its cells
+    images = [np.full((120, 160, 3), 0.3) for _ in cams]
+    lists = ([], [], [])
+    support_points(cams, images, np.concatenate([pts, wall]), SupportInit(cell_px=4), None, lists)
+    xyz, rgb = thin_backdrop(*lists)
+    assert len(xyz) > 100
+    r = np.hypot(xyz[:, 0], xyz[:, 1])
+    on_wall = np.abs(r - 4.0) < 0.15 * 4.0  # the depths of the window's points agree within 15 %
+    assert on_wall.mean() > 0.9
+    np.testing.assert_allclose(rgb, 0.3)
+    lists = ([], [], [])
+    support_points(cams, images, pts, SupportInit(cell_px=4, backdrop_window=0), None, lists)
+    assert sum(len(x) for x in lists[0]) == 0  # switched off

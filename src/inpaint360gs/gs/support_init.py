@@ -17,6 +17,14 @@ point coloured by the cell's pixels when it lies within the cameras' orbit aroun
 and no nearby SfM point standing above the plane lies clearly in front of it in that view (then
 the cell shows something standing on the support, not the support). The points of all views are merged on a grid of the
 cells' size on the plane, so overlapping views give one point per place.
+
+Beyond the support (the backdrop, the floor past a sheet) no plane tells where a cell's surface
+lies, but its neighbours do: a cell whose ray misses the support within reach and that holds no SfM
+point gets one at the median depth of the SfM points projecting within a few cells of it in that
+view, when their depths agree (one smooth surface, not an object's edge against the wall behind),
+coloured by the cell; these are merged on a voxel grid of the cells' median footprint. A plain
+capture's SfM points are few everywhere, and the textured backdrop far behind gets too few of them
+for the short CPU budget to densify before it ends.
 """
 
 from __future__ import annotations
@@ -46,6 +54,12 @@ class SupportInit:
     # "auto": a support is plain when at least this share of the cells that show it (the centre ray
     # meets it within reach, unhidden) hold no SfM point
     plain_share: float = 0.5
+    # beyond the support (the backdrop, the floor past the sheet): an uncovered cell whose ray misses
+    # the support within reach gets a point at the median depth of the SfM points that project
+    # within this many cells of it in that view (0: none) ...
+    backdrop_window: int = 3
+    backdrop_min_points: int = 3  # ... when at least this many do ...
+    backdrop_spread: float = 0.15  # ... and their depths agree: (max - min) / median at most this (one smooth surface, not an edge)
 
 
 @dataclass(frozen=True)
@@ -106,6 +120,7 @@ def support_points(
     points: np.ndarray,
     cfg: SupportInit | None = None,
     stats: dict | None = None,
+    backdrop: tuple[list, list, list] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(xyz (M, 3), rgb (M, 3) in [0, 1]) on the support plane where the SfM ``points`` (P, 3) leave
     cells of the training ``cameras``' ``images`` ((H, W, 3) floats in [0, 1], one per camera)
@@ -165,9 +180,21 @@ def support_points(
         keep = on_support & ~np.isfinite(near[ii, jj])  # uncovered: no SfM point within one cell
         cells[0] += int(on_support.sum())
         cells[1] += int(keep.sum())
+        im = np.asarray(img, dtype=np.float64)
+        if backdrop is not None and cfg.backdrop_window > 0:
+            missed = ~(np.isfinite(depth) & (depth > 0) & (along <= cfg.reach * frame.radius))  # the ray misses the support within reach
+            own = np.zeros((gh, gw), bool)
+            own[cv, cu] = True  # cells holding an SfM point themselves: the backdrop is filled to one point per cell
+            far = np.flatnonzero(missed & ~own[ii, jj])
+            if len(far):
+                bz = _neighbour_depth(cu, cv, cz, ii[far], jj[far], cfg)
+                ok = np.isfinite(bz)
+                f = far[ok]
+                backdrop[0].append(o + bz[ok, None] * dirs[f])
+                backdrop[1].extend(im[ii[k] * c : ii[k] * c + c, jj[k] * c : jj[k] * c + c].reshape(-1, 3).mean(0) for k in f)
+                backdrop[2].append(bz[ok] * c / cam.fx)
         if not keep.any():
             continue
-        im = np.asarray(img, dtype=np.float64)
         for k in np.nonzero(keep)[0]:
             y0, x0 = ii[k] * c, jj[k] * c
             rgb.append(im[y0 : y0 + c, x0 : x0 + c].reshape(-1, 3).mean(0))
@@ -184,6 +211,26 @@ def support_points(
     local = (xyz - look) @ basis.T + [0.0, 0.0, 0.5 * step]
     local, rgb = voxel_thin(local, rgb, step)
     return (local - [0.0, 0.0, 0.5 * step]) @ basis + look, np.clip(rgb, 0.0, 1.0)
+
+
+def _neighbour_depth(cu: np.ndarray, cv: np.ndarray, cz: np.ndarray, rows: np.ndarray, cols: np.ndarray, cfg: SupportInit) -> np.ndarray:
+    """(K,) camera depth for the cells (``rows``, ``cols``): the median depth of the SfM points
+    (cells ``cu``, ``cv``, depths ``cz``) within ``cfg.backdrop_window`` cells, NaN where fewer than
+    ``cfg.backdrop_min_points`` lie there or their depths spread more than ``cfg.backdrop_spread``."""
+    from scipy.spatial import cKDTree
+
+    out = np.full(len(rows), np.nan)
+    if len(cz) < cfg.backdrop_min_points or not len(rows):
+        return out
+    tree = cKDTree(np.stack([cu, cv], 1).astype(np.float64))
+    for k, near in enumerate(tree.query_ball_point(np.stack([cols, rows], 1).astype(np.float64), cfg.backdrop_window, p=np.inf)):
+        if len(near) < cfg.backdrop_min_points:
+            continue
+        z = cz[near]
+        med = float(np.median(z))
+        if (z.max() - z.min()) <= cfg.backdrop_spread * med:
+            out[k] = med
+    return out
 
 
 def _cells(cam: Camera, pts: np.ndarray, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -211,19 +258,32 @@ def _nearest_in_cells(cu: np.ndarray, cv: np.ndarray, cz: np.ndarray, gw: int, g
 
 
 def with_support_points(scene, cfg: SupportInit | None = None, *, auto: bool = False) -> tuple[torch.Tensor, torch.Tensor, dict]:
-    """The scene's SfM points and colours with :func:`support_points` appended, and a report:
-    ``support_points`` (how many were added) and ``support_uncovered`` (the share of the cells
-    showing the support that no SfM point covers). With ``auto``, the points are added only on a
-    plain support: a share of at least ``plain_share``."""
+    """The scene's SfM points and colours with :func:`support_points` appended (and the backdrop's,
+    :func:`thin_backdrop`), and a report: ``support_points`` and ``backdrop_points`` (how many were
+    added) and ``support_uncovered`` (the share of the cells showing the support that no SfM point
+    covers). With ``auto``, the points are added only on a plain support: a share of at least
+    ``plain_share``."""
     cfg = cfg or SupportInit()
     views = list(scene.train_views)
     images = [scene.load_image(v).numpy() for v in views]
     stats: dict = {}
-    xyz, rgb = support_points([v.camera for v in views], images, scene.points.double().numpy(), cfg, stats)
+    backdrop: tuple[list, list, list] = ([], [], [])
+    xyz, rgb = support_points([v.camera for v in views], images, scene.points.double().numpy(), cfg, stats, backdrop)
     share = stats.get("uncovered_support_cells", 0) / max(stats.get("support_cells", 0), 1)
-    report = {"support_uncovered": round(share, 4), "support_points": 0}
+    report = {"support_uncovered": round(share, 4), "support_points": 0, "backdrop_points": 0}
     if not len(xyz) or (auto and share < cfg.plain_share):
         return scene.points, scene.point_colors, report
-    pts = torch.cat([scene.points.float(), torch.from_numpy(xyz).float()])
-    cols = torch.cat([scene.point_colors.float(), torch.from_numpy(rgb).float()])
-    return pts, cols, {**report, "support_points": len(xyz)}
+    bxyz, brgb = thin_backdrop(*backdrop)
+    pts = torch.cat([scene.points.float(), torch.from_numpy(xyz).float(), torch.from_numpy(bxyz).float()])
+    cols = torch.cat([scene.point_colors.float(), torch.from_numpy(rgb).float(), torch.from_numpy(brgb).float()])
+    return pts, cols, {**report, "support_points": len(xyz), "backdrop_points": len(bxyz)}
+
+
+def thin_backdrop(xyz: list, rgb: list, size: list) -> tuple[np.ndarray, np.ndarray]:
+    """The backdrop points of all views (lists of per-view arrays), one per voxel of their median
+    cell footprint (overlapping views give one point per place)."""
+    if not xyz or not sum(len(x) for x in xyz):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    p, c, s = np.concatenate(xyz), np.asarray(rgb, dtype=np.float64).reshape(-1, 3), np.concatenate(size)
+    p, c = voxel_thin(p, c, float(np.median(s)))
+    return p, np.clip(c, 0.0, 1.0)
