@@ -54,9 +54,9 @@ class SupportInit:
     # "auto": a support is plain when at least this share of the cells that show it (the centre ray
     # meets it within reach, unhidden) hold no SfM point
     plain_share: float = 0.5
-    # beyond the support (the backdrop, the floor past the sheet): an uncovered cell whose ray misses
-    # the support within reach gets a point at the median depth of the SfM points that project
-    # within this many cells of it in that view (0: none) ...
+    # beyond the support (the backdrop, the floor past the sheet): a cell holding no SfM point whose
+    # ray misses the support within reach gets a point at the median depth of the SfM points that
+    # project within this many cells of it in that view (0: none) ...
     backdrop_window: int = 3
     backdrop_min_points: int = 3  # ... when at least this many do ...
     backdrop_spread: float = 0.15  # ... and their depths agree: (max - min) / median at most this (one smooth surface, not an edge)
@@ -127,7 +127,9 @@ def support_points(
     uncovered. Empty arrays when the plane cannot be fitted (fewer than three points, no plane).
     ``stats``, when given, receives ``support_cells`` (cells of all views whose centre ray meets the
     support within reach, unhidden) and ``uncovered_support_cells`` (those of them no SfM point
-    covers: the points' cells before merging)."""
+    covers: the points' cells before merging). ``backdrop``, when given (three lists), receives per
+    view the cells beyond the support given a point at their neighbours' depth (the module
+    docstring): positions, colours and cell footprints, for :func:`thin_backdrop`."""
     from inpaint360gs.core.errors import InputError
 
     cfg = cfg or SupportInit()
