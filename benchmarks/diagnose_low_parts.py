@@ -38,6 +38,7 @@ def main(argv=None) -> int:
     from inpaint360gs.core.support import STANDING, object_footprint
     from PIL import Image
     from inpaint360gs.io.scene import load_scene
+    from inpaint360gs.views.unseen import project
 
     cap: dict = {}
     footprint_columns = geo.footprint_columns
@@ -62,10 +63,8 @@ def main(argv=None) -> int:
         inst = np.array(Image.open(a.scene / "gt" / "instance" / v.name))
         inst = inst[..., 0] if inst.ndim == 3 else inst
         cam = v.camera
-        pc = means @ cam.R.double().numpy().T + cam.t.double().numpy()
-        z = np.maximum(pc[:, 2], 1e-9)
-        u, w = cam.fx * pc[:, 0] / z + cam.cx, cam.fy * pc[:, 1] / z + cam.cy
-        inside = (pc[:, 2] > 1e-6) & (u >= 0) & (u < cam.width) & (w >= 0) & (w < cam.height)
+        u, w, z = project(cam, means)
+        inside = (z > 1e-6) & (u >= 0) & (u < cam.width) & (w >= 0) & (w < cam.height)
         seen[inside] += 1
         hits[np.flatnonzero(inside)] += inst[w[inside].astype(int), u[inside].astype(int)] == a.target
     true = (hits >= a.share * np.maximum(seen, 1)) & (seen > 0) & (opac > 0.1)

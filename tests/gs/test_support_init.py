@@ -132,9 +132,15 @@ def test_backdrop_cells_get_points_at_the_depth_their_neighbours_agree_on():
     xyz, rgb = thin_backdrop(*lists)
     assert len(xyz) > 100
     r = np.hypot(xyz[:, 0], xyz[:, 1])
-    on_wall = np.abs(r - 4.0) < 0.15 * 4.0  # the depths of the window's points agree within 15 %
-    assert on_wall.mean() > 0.9
+    assert (np.abs(r - 4.0) < 0.15 * 4.0).all()  # on the wall (the depths of the window's points agree within 15 %), none in mid-air
     np.testing.assert_allclose(rgb, 0.3)
+    # without the agreement test, cells over the floor's edge (floor and wall points around them) get
+    # the median of the two depths: points in mid-air between them
+    lists = ([], [], [])
+    support_points(cams, images, np.concatenate([pts, wall]), SupportInit(cell_px=4, backdrop_spread=10.0), None, lists)
+    loose, _ = thin_backdrop(*lists)
+    mid_air = (np.abs(np.hypot(loose[:, 0], loose[:, 1]) - 4.0) >= 0.6) & (np.abs(loose[:, 2]) >= 0.05)
+    assert mid_air.sum() > 100
     lists = ([], [], [])
     support_points(cams, images, pts, SupportInit(cell_px=4, backdrop_window=0), None, lists)
     assert sum(len(x) for x in lists[0]) == 0  # switched off
