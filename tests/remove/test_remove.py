@@ -522,6 +522,38 @@ def test_leg_ends_hanging_below_the_object_go_with_it():
     assert not hanging_below(means, heights, up, removed, candidates, r=0.0).any()
 
 
+def _hanging_below_reference(means, heights, up, removed, candidates, r):
+    """hanging_below's growth one Gaussian at a time, by brute force (no k-d tree)."""
+    flat = means - np.outer(means @ up, up)
+    out = np.zeros(len(means), bool)
+    cand = candidates & ~removed
+    frontier = list(np.flatnonzero(removed))
+    while frontier:
+        reached = set()
+        for f in frontier:
+            d = np.sqrt(((flat - flat[f]) ** 2).sum(1))
+            drop = heights[f] - heights
+            reached |= set(np.flatnonzero(cand & ~out & (d <= r) & (drop >= d) & (drop > 0) & (drop <= 2 * r)).tolist())
+        frontier = sorted(reached)
+        out[frontier] = True
+    return out
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_hanging_below_is_the_one_at_a_time_growth(seed):
+    from inpaint360gs.remove.geometry import hanging_below
+
+    rng = np.random.default_rng(seed)
+    up = rng.normal(size=3)
+    up /= np.linalg.norm(up)
+    means = rng.random((600, 3)) * 0.3
+    heights = means @ up
+    removed = rng.random(600) < 0.05
+    candidates = rng.random(600) < 0.7
+    got = hanging_below(means, heights, up, removed, candidates, r=0.03)
+    assert np.array_equal(got, _hanging_below_reference(means, heights, up, removed, candidates, 0.03)) and got.any()
+
+
 def test_upright_tells_standing_shapes_from_splats_lying_in_the_plane():
     """Variance along the normal against the sum across it: a vertical needle and one tilted 30 deg
     from the normal are upright; one tilted 60 deg, a flat floor splat and a round one are not."""

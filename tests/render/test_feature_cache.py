@@ -25,15 +25,29 @@ def _model(n=500, seed=0):
                      opacity_logits=torch.randn(n, generator=gen) * 2 + 1, sh0=torch.randn(n, 1, 3, generator=gen), shN=torch.randn(n, 3, 3, generator=gen) * 0.1)  # fmt: skip
 
 
+def _features(kind: str, g, n_features: int, rng) -> torch.Tensor:
+    """0/1 features on a random 30 %; on the 15 % of Gaussians nearest the cameras (each tile's list
+    is cut after its first few: the cache composites only up to a tile's last nonzero feature); or
+    signed real values on a random half."""
+    n = len(g.means)
+    if kind == "random":
+        return torch.from_numpy(rng.random((n, n_features)) < 0.3).float()
+    if kind == "front":
+        near = g.means[:, 2] < torch.quantile(g.means[:, 2], 0.15)
+        return near[:, None].float().expand(n, n_features).clone()
+    return torch.from_numpy(rng.normal(size=(n, n_features)) * (rng.random((n, 1)) < 0.5)).float()
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
-def test_cached_features_are_the_rendered_features_bit_for_bit(backend):
+@pytest.mark.parametrize("n_features,kind", [(2, "random"), (1, "front"), (1, "signed"), (5, "front"), (5, "signed")])
+def test_cached_features_are_the_rendered_features_bit_for_bit(backend, n_features, kind):
     g = _model()
     cams = {f"v{k}": Camera(torch.eye(3), torch.tensor([0.1 * k, 0.0, 0.0]), 50.0, 50.0, 35.3, 22.3, 70, 45) for k in range(3)}
     cache = FeatureRenders(g, backend)
     rng = np.random.default_rng(1)
     for _ in range(2):  # the second round reuses every view's projection
         for key, cam in cams.items():
-            feats = torch.from_numpy(rng.random((len(g.means), 2)) < 0.3).float()
+            feats = _features(kind, g, n_features, rng)
             ref = g.map(lambda t: t)
             ref.features = feats
             want = render(ref, cam, with_features=True, backend=backend).features
@@ -95,3 +109,31 @@ def test_the_silhouette_test_with_the_cache_is_the_one_without_it(make_blobs_sce
         body = rng.random(len(model)) < 0.4
         idx = np.flatnonzero(rng.random(len(model)) < 0.1)
         assert np.array_equal(plain(idx, body), cached(idx, body))
+
+
+def test_the_kernels_of_a_thread_run_on_at_most_the_threads_it_asks_for():
+    """numba_threads_at_most caps the calling thread's kernels only (another thread keeps its count),
+    the cap ends with the block, and the features are the same bits on one thread as on all."""
+    import threading
+
+    import numba
+
+    from inpaint360gs.render.numba_arrays import numba_threads_at_most, set_numba_threads
+
+    set_numba_threads()
+    full = numba.get_num_threads()
+    g = _model(seed=5)
+    cam = Camera(torch.eye(3), torch.zeros(3), 50.0, 50.0, 35.3, 22.3, 70, 45)
+    feats = _features("random", g, 1, np.random.default_rng(6))
+    want = FeatureRenders(g).features("v", cam, feats)
+    seen = {}
+    with numba_threads_at_most(1):
+        set_numba_threads()
+        seen["inside"] = numba.get_num_threads()
+        other = threading.Thread(target=lambda: (set_numba_threads(), seen.__setitem__("other", numba.get_num_threads())))
+        other.start()
+        other.join()
+        got = FeatureRenders(g).features("v", cam, feats)
+    set_numba_threads()
+    assert seen == {"inside": 1, "other": full} and numba.get_num_threads() == full
+    assert torch.equal(got, want)

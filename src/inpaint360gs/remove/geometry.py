@@ -77,16 +77,17 @@ def hanging_below(means: np.ndarray, heights: np.ndarray, up: np.ndarray, remove
     tree = cKDTree(flat[cand])
     frontier = np.flatnonzero(removed)
     while len(frontier):
-        reached = set()
-        for f, hits in zip(frontier, tree.query_ball_point(flat[frontier], r)):
-            if not hits:
-                continue
-            c = cand[hits]
-            c = c[~out[c]]
-            d = np.linalg.norm(flat[c] - flat[f], axis=1)
-            drop = heights[f] - heights[c]
-            reached.update(c[(drop >= d) & (drop > 0) & (drop <= 2 * r)].tolist())
-        frontier = np.array(sorted(reached), dtype=np.int64)
+        hits = tree.query_ball_point(flat[frontier], r)
+        counts = np.fromiter((len(h) for h in hits), np.int64, len(hits))
+        if not counts.sum():
+            break
+        f = np.repeat(frontier, counts)  # each (frontier Gaussian, candidate within r) pair, at once
+        c = cand[np.concatenate([np.asarray(h, np.int64) for h in hits if h])]
+        fresh = ~out[c]
+        f, c = f[fresh], c[fresh]
+        d = np.linalg.norm(flat[c] - flat[f], axis=1)
+        drop = heights[f] - heights[c]
+        frontier = np.unique(c[(drop >= d) & (drop > 0) & (drop <= 2 * r)])
         out[frontier] = True
     return out
 

@@ -447,9 +447,14 @@ class ViewerSession:
             return []
 
     def _check(self, gen: int, sel: Selected, masks: dict, what: str) -> None:
-        """The rest of the plan of ``sel`` (fill masks of the other views, the check), in the background."""
+        """The rest of the plan of ``sel`` (fill masks of the other views, the check), in the background,
+        on one rasterizer thread: the other cores draw the selection meanwhile (the server's page and,
+        on this machine, the browser)."""
+        from inpaint360gs.render.numba_arrays import numba_threads_at_most
+
         try:
-            plan = complete_plan(self.field, self.scene, sel, masks=masks, **self._plan_args())
+            with numba_threads_at_most(1):
+                plan = complete_plan(self.field, self.scene, sel, masks=masks, **self._plan_args())
             error = None
         except Exception as e:  # shown as the page's line; the selection stays drawn
             plan, error = None, f"{type(e).__name__}: {e}"
