@@ -7,7 +7,8 @@ is screenshotted every 0.1 s, so that "drawn" is what the browser shows, not wha
    opened; the browser is sent there at once), to its line saying the scene is loaded, and to the
    first screenshot whose splat region holds the scene (pixels neither the page's white nor the
    frustums' grey), counted from the command's start.
-2. In this process, the viewer on the same folders with a browser connected and the page loaded: a
+2. In this process, the viewer on the same folders with a browser connected, the page loaded and
+   what clicks re-use ready (seconds from the page's opening to that, ``ViewerApp.wait_warm``): a
    click on the photo at ``--click`` (the selection through the object field, as ``run --click``),
    seconds to the selection computed and sent, and to the first screenshot that differs from the one
    before the click; then the same click again (drops it); then a click on the splats along the ray
@@ -87,13 +88,16 @@ def click_times(args, browser: Browser) -> dict:
     app = ViewerApp(session, port=free_port(), max_splats=DEFAULT_SPLATS)  # as inpaint360gs view draws them
     out = {}
     try:
+        t0 = time.perf_counter()
         browser.call("Page.navigate", url=f"http://127.0.0.1:{app.port}")
-        app.wait_loaded()
+        app.wait_warm()
         wait_for(browser, scene_drawn, time.perf_counter())
-        time.sleep(1.0)
         click = Click.parse(args.click)
         view = scene.view(click.view)
         app.show_view(view, move=False)
+        session.id_map(view)  # the shown photo's id map, which the page renders when a camera is chosen
+        out["viewer warm: support plane, projections, the shown photo's id map (s)"] = time.perf_counter() - t0
+        time.sleep(1.0)
         origin = view.camera.center.double().numpy()
         fov, aspect = frustum_shape(view.camera)
         ray = ray_through_pixel(view, click.x, click.y, origin, frustum_depth(fov, aspect, app.scale))

@@ -190,11 +190,11 @@ def test_a_click_draws_its_selection_first_and_its_check_follows_the_same_as_run
     import threading
 
     scene, _, _, field = blobs
-    session.warm()  # the support plane and the views' projections, as the page does once it is drawn
-    assert all(session.renders.holds(v.name) for v in scene.train_views)
+    v = scene.train_views[2]
+    session.warm(v)  # the shown photo's id map, the support plane and the views' projections, as the page does once it is drawn
+    assert all(session.renders.holds(w.name) for w in scene.train_views) and list(session._id_maps) == [v.name]
     checked = threading.Event()
     session.on_checked = checked.set
-    v = scene.train_views[2]
     c1 = click_on(v, BLOB_1)
     ref = plan_removal(field, scene, clicks=[c1], cfg=session.cfg.removal, backend=session.cfg.backend)
     line = session.click(c1, wait=False)
@@ -208,6 +208,20 @@ def test_a_click_draws_its_selection_first_and_its_check_follows_the_same_as_run
     from inpaint360gs.remove.select import click_id_map
 
     assert list(session._id_maps) == [v.name] and torch.equal(session._id_maps[v.name], click_id_map(field, v))  # what select renders
+    # the id map of a photo shown and clicked at once: rendered once, by whichever comes first
+    import inpaint360gs.viewer.session as session_module
+
+    renders = []
+    real = session_module.click_id_map
+    session_module.click_id_map = lambda f, w: renders.append(w.name) or real(f, w)
+    try:
+        w = scene.train_views[6]
+        threads = [threading.Thread(target=session.id_map, args=(w,)) for _ in range(3)]
+        [t.start() for t in threads]
+        [t.join() for t in threads]
+    finally:
+        session_module.click_id_map = real
+    assert renders == [w.name] and torch.equal(session.id_map(w), click_id_map(field, w))
     # two clicks in a row: what stays is the selection of both, checked as run with both checks it
     c2 = click_on(scene.train_views[4], BLOB_2)
     session.click(click_on(scene.train_views[5], BLOB_1), wait=False)  # drops blob 1

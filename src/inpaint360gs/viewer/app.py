@@ -78,6 +78,7 @@ class ViewerApp:
         if sent is not None and session.ply("before").is_file() and sent[:2] == (session.ply("before").stat().st_mtime, max_splats):
             self.splats["before"] = sent
         self._poller = None
+        self._warmer = None  # the thread of session.warm, started once the page is loaded
         self._stopped = False
         self.server.scene.set_up_direction(tuple(scene_up(self.scene)))
         self._build_gui()
@@ -99,13 +100,23 @@ class ViewerApp:
         with self.lock:
             self.show_view(self.current, move=False)  # the chosen camera's frustum coloured
         # what every click's selection re-uses, before the first click (a click meanwhile does what is missing)
-        threading.Thread(target=self.session.warm, name="inpaint360gs-viewer-warm", daemon=True).start()
+        self._warmer = threading.Thread(target=self.session.warm, args=(self.current,), name="inpaint360gs-viewer-warm", daemon=True)
+        self._warmer.start()
 
     def _on_checked(self) -> None:
         """The selection's check is done (a background thread): its line in the panel."""
         with self.lock:
             if not self._stopped:
                 self._refresh_text()
+
+    def wait_warm(self, timeout: float | None = None) -> bool:
+        """Wait until the page is loaded and what clicks re-use is ready (:meth:`.session.ViewerSession.warm`;
+        benchmarks); True when it is."""
+        if not self.wait_loaded(timeout):
+            return False
+        if self._warmer is not None:
+            self._warmer.join(timeout)
+        return self._warmer is None or not self._warmer.is_alive()
 
     def wait_loaded(self, timeout: float | None = None) -> bool:
         """Wait until the page's content is all sent (tests); True when it is."""
@@ -258,6 +269,8 @@ class ViewerApp:
     def show_view(self, view, *, move: bool = True) -> None:
         """Choose the camera ``view``: the panel's photo | render, and (``move``) the page's camera at it."""
         with self.lock:
+            if view.name != self.current.name and self.session.field is not None:  # the id map a click on this photo reads, while it is looked at
+                threading.Thread(target=self.session.id_map, args=(view,), name="inpaint360gs-viewer-id-map", daemon=True).start()
             self.current = view
             if self.g_view.value != view.name:
                 self.g_view.value = view.name

@@ -297,14 +297,16 @@ class ViewerSession:
         self.field = None
         self.renders: FeatureRenders | None = None
         self._support = None
-        self._id_maps: dict = {}  # view name -> the field's id map a click there reads (select's), rendered at the first click there
+        self._id_maps: dict = {}  # view name -> the field's id map a click there reads (select's): id_map()
+        self._id_locks: dict[str, threading.Lock] = {}  # view name -> held while its id map is rendered
+        self._id_guard = threading.Lock()
         self._warm = threading.Lock()
         self.reload_field()
 
     # --- what the run folder holds -----------------------------------------------------------------
     def reload_field(self) -> None:
         """Load the run's object field (``distill/``) when it exists; clicks are resolved with it."""
-        self.field, self.renders, self._support, self._id_maps = None, None, None, {}
+        self.field, self.renders, self._support, self._id_maps, self._id_locks = None, None, None, {}, {}
         if (self.layout.distill / "classifier.json").is_file():
             try:
                 self.field = load_field(self.layout.distill, self.scene)
@@ -320,14 +322,35 @@ class ViewerSession:
                 self._support = support_plane(self.field, self.scene, self.cfg.removal)
             return self._support
 
-    def warm(self) -> None:
-        """Do before any click what every click's selection re-uses (README "Viewer"): the support
-        plane and each training view's projection of the field's Gaussians (:class:`FeatureRenders`).
-        The viewer runs it in a background thread once the page is drawn; a click meanwhile does
-        what is missing itself. The selections are the same with or without it."""
+    def id_map(self, view: View) -> np.ndarray | None:
+        """The object field's id map of ``view`` that a click there reads (:func:`click_id_map`),
+        rendered once per view and field (thread-safe: a click waits for a render of it under way
+        rather than rendering it again); None without a field."""
+        field_ = self.field
+        if field_ is None:
+            return None
+        with self._id_guard:
+            lock = self._id_locks.setdefault(view.name, threading.Lock())
+        with lock:
+            ids = self._id_maps.get(view.name)
+            if ids is None:
+                ids = click_id_map(field_, view)
+                if self.field is field_:  # not reloaded meanwhile
+                    self._id_maps[view.name] = ids
+        return ids
+
+    def warm(self, view: View | None = None) -> None:
+        """Do before any click what every click's selection re-uses (README "Viewer"): the id map of
+        ``view`` (the camera the page shows: where the next click lands), the support plane and each
+        training view's projection of the field's Gaussians (:class:`FeatureRenders`). The viewer
+        runs it in a background thread once the page is drawn (and the id map of each camera it is
+        switched to); a click meanwhile does what is missing itself. The selections are the same
+        with or without it."""
         renders = self.renders
         if renders is None:
             return
+        if view is not None:
+            self.id_map(view)
         self.support()
         for v in self.scene.train_views:
             if self.renders is not renders:  # the field was reloaded
@@ -401,8 +424,7 @@ class ViewerSession:
                 return self.message
             # what each click picks (independent of the other clicks); a click on a selected object drops it
             for view in self._click_views([*self.clicks, click]):  # each view's id map rendered once (a click re-selects the earlier clicks too)
-                if view.name not in self._id_maps:
-                    self._id_maps[view.name] = click_id_map(self.field, view)
+                self.id_map(view)
             picked_all = select(self.field, self.scene, [*self.clicks, click], backend=self.cfg.backend, id_maps=self._id_maps)
             picked = picked_all[-1]
             same = []
