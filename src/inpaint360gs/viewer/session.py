@@ -471,7 +471,7 @@ class ViewerSession:
     def _check(self, gen: int, sel: Selected, masks: dict, what: str) -> None:
         """The rest of the plan of ``sel`` (fill masks of the other views, the check), in the background,
         on one rasterizer thread: the other cores draw the selection meanwhile (the server's page and,
-        on this machine, the browser)."""
+        where it runs on the same computer, the browser)."""
         from inpaint360gs.render.numba_arrays import numba_threads_at_most
 
         try:
