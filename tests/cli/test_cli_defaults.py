@@ -52,6 +52,7 @@ SOURCES = {
 # option -> (where, field) when the names differ
 RENAMED = {
     "densify_grad_threshold": (DensifyConfig, "grad_threshold"),
+    "densify_gradient": (DensifyConfig, "gradient"),
     "max_gaussians": (DensifyConfig, "max_gaussians"),
     "distill_iterations": (DistillConfig, "iterations"),
     "association": (AssociationConfig, "method"),

@@ -119,6 +119,26 @@ def test_split_large_high_gradient_gaussians():
     assert not opts["sh0"].state[params["sh0"]]["exp_avg"][1:].any()
 
 
+def test_abs_gradient_mode_thresholds_the_absolute_sums_at_their_own_threshold():
+    """gradient="abs" (AbsGS) reads ``means2d.absgrad``, not ``means2d.grad``, and compares with
+    ``abs_grad_threshold``: a Gaussian whose pixels pull both ways (sum 0) densifies; the mean mode
+    leaves it. "auto" is "abs" on a sparse start only."""
+    width, height = 64, 48
+    grad = torch.zeros(2, 2)  # both pulled both ways: the sums cancel
+    # per pixel unit; in NDC units (x W/2 = 32): 1.5e-3 and 0.3e-3, around the 4e-4 threshold
+    absgrad = torch.tensor([[1.5e-3 / 32, 0.0], [0.3e-3 / 32, 0.0]])
+    cases = (("mean", False, 0), ("abs", False, 1), ("auto", False, 0), ("auto", True, 1), ("mean", True, 0))
+    for mode, sparse, cloned in cases:
+        s = DensifyStrategy(DensifyConfig(gradient=mode, densify_from=0, densify_every=1), EXTENT, sparse_start=sparse)
+        assert s.gradient == ("abs" if cloned else "mean")
+        params, opts = hand_built(scales=[[0.05] * 3] * 2, opacities=[0.5, 0.5])
+        st = s.initialize_state(2)
+        out = SimpleNamespace(means2d=SimpleNamespace(grad=grad, absgrad=absgrad), radii=torch.tensor([3, 3]))
+        stats = s.step_post_backward(params, opts, st, 1, out, SimpleNamespace(width=width, height=height))
+        assert stats.cloned == cloned, (mode, sparse)  # 1.5e-3 >= 4e-4 > 0.3e-3: only the first
+    assert DensifyConfig().gradient == "auto" and DensifyConfig().abs_grad_threshold == 4e-4
+
+
 def test_prune_low_opacity_and_big_gaussians():
     s = DensifyStrategy(DensifyConfig(), EXTENT)
     # 0 transparent, 1 big in the world (1.5 > 0.1 x 10), 2 big on screen (radius 30 > 20), 3 fine

@@ -120,6 +120,7 @@ def _os_error(e: OSError) -> str:
 OPTION_OF_SETTING = {
     "VirtualViewsConfig.num_views": "virtual_views",
     "DensifyConfig.grad_threshold": "densify_grad_threshold",
+    "DensifyConfig.gradient": "densify_gradient",
     "DistillConfig.iterations": "distill_iterations",
     "RefineConfig.iterations": "inpaint_iterations",
     "RefineConfig.variant": "refine_variant",

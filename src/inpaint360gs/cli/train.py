@@ -17,7 +17,7 @@ from inpaint360gs.cli.common import (
     positive_int,
     set_threads,
 )
-from inpaint360gs.gs.config import ORIGINAL_ITERATIONS, DensifyConfig, TrainConfig
+from inpaint360gs.gs.config import DENSIFY_GRADIENTS, ORIGINAL_ITERATIONS, DensifyConfig, TrainConfig
 
 
 def _schedule_scale(text: str) -> float | str:
@@ -40,6 +40,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--densify-grad-threshold", type=positive_float, default=d.densify.grad_threshold,
         help=f"densify Gaussians whose mean NDC position gradient exceeds this (default {d.densify.grad_threshold:g}, the original)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--densify-gradient", choices=DENSIFY_GRADIENTS, default=d.densify.gradient,
+        help=f"view-space gradient the densification thresholds: mean (3DGS), abs (AbsGS: per-pixel absolute values, "
+        f"threshold {d.densify.abs_grad_threshold:g}), or auto: abs when support points were added (a sparse capture) "
+        f"(default {d.densify.gradient})",
     )  # fmt: skip
     parser.add_argument(
         "--max-gaussians", type=nonneg_int, default=d.densify.max_gaussians,
@@ -82,7 +88,7 @@ def config_from_args(args: argparse.Namespace) -> TrainConfig:
         checkpoint_every=args.checkpoint_every,
         eval_every=args.eval_every,
         log_every=args.log_every,
-        densify=DensifyConfig(grad_threshold=args.densify_grad_threshold, max_gaussians=args.max_gaussians),
+        densify=DensifyConfig(grad_threshold=args.densify_grad_threshold, gradient=args.densify_gradient, max_gaussians=args.max_gaussians),
     )
 
 

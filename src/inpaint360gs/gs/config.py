@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 ORIGINAL_ITERATIONS = 30_000
 SUPPORT_INIT_MODES = ("auto", "on", "off")
+DENSIFY_GRADIENTS = ("auto", "mean", "abs")
 
 
 def _scale_steps(steps: int, scale: float) -> int:
@@ -26,6 +27,11 @@ class DensifyConfig:
     """Adaptive density control (3DGS Sec. 5.2 and ``densify_and_prune``)."""
 
     grad_threshold: float = 2e-4  # mean view-space gradient norm, NDC units, above which to densify
+    # Not in the original: "abs" thresholds the sums of the per-pixel gradients' absolute values
+    # (AbsGS; gs/strategy.py) at ``abs_grad_threshold`` instead; "auto" does so when 3DGS starts
+    # from a sparse capture (support points added, TrainConfig.support_init), else "mean" (3DGS)
+    gradient: str = "auto"  # auto | mean | abs
+    abs_grad_threshold: float = 4e-4  # mean absolute view-space gradient norm, NDC units
     percent_dense: float = 0.01  # clone if max scale <= this x scene extent, else split
     split_children: int = 2  # N in 3DGS ``densify_and_split``
     split_scale_divisor: float = 0.8  # children's scales = parent / (0.8 N)
@@ -106,6 +112,10 @@ class TrainConfig:
             raise InputError(f"schedule scale must be > 0, got {self.schedule_scale}", setting="TrainConfig.schedule_scale")
         if not self.densify.grad_threshold > 0:
             raise InputError(f"densification gradient threshold must be > 0, got {self.densify.grad_threshold}", setting="DensifyConfig.grad_threshold")
+        if self.densify.gradient not in DENSIFY_GRADIENTS:
+            raise InputError(f"densify gradient must be one of {', '.join(DENSIFY_GRADIENTS)}, got {self.densify.gradient!r}", setting="DensifyConfig.gradient")
+        if not self.densify.abs_grad_threshold > 0:
+            raise InputError(f"absolute-gradient threshold must be > 0, got {self.densify.abs_grad_threshold}", setting="DensifyConfig.abs_grad_threshold")
         if self.densify.max_gaussians < 0:
             raise InputError(f"max Gaussians must be >= 0 (0: no cap), got {self.densify.max_gaussians}", setting="DensifyConfig.max_gaussians")
         if not 0 <= self.sh_degree <= 3:

@@ -61,9 +61,13 @@ class Strategy:
 class DensifyStrategy(Strategy):
     """The 3DGS clone/split/prune/reset schedule for a scene of radius ``scene_extent``."""
 
-    def __init__(self, cfg: DensifyConfig, scene_extent: float):
+    def __init__(self, cfg: DensifyConfig, scene_extent: float, *, sparse_start: bool = False):
+        """``sparse_start``: the Gaussians start from a sparse capture's points (3DGS added support
+        points, gs/support_init.py); with ``cfg.gradient == "auto"`` the absolute gradient is then
+        thresholded (:meth:`view_gradient`), else the mean one."""
         self.cfg = cfg
         self.extent = float(scene_extent)
+        self.gradient = "abs" if cfg.gradient == "abs" or (cfg.gradient == "auto" and sparse_start) else "mean"
 
     def initialize_state(self, n: int, device: torch.device | str = "cpu") -> dict[str, torch.Tensor]:
         """Zeroed per-Gaussian gradient sums, visibility counts and max 2D radii."""
@@ -72,6 +76,19 @@ class DensifyStrategy(Strategy):
             "count": torch.zeros(n, device=device),  # steps each Gaussian was visible
             "max_radii": torch.zeros(n, device=device),  # largest 2D radius (pixels) since the last densification
         }
+
+    def view_gradient(self, means2d: torch.Tensor) -> torch.Tensor | None:
+        """The per-Gaussian view-space gradient this schedule thresholds, (N, 2), or None before a backward.
+
+        ``gradient="mean"``: dLoss/d(pixel position), the sum over the Gaussian's pixels (3DGS).
+        ``gradient="abs"``: the sum over its pixels of each pixel's gradient's absolute value
+        (AbsGS, Ye et al. 2024, "homodirectional" gradient): a large Gaussian over detail whose
+        pixels pull its centre in opposite directions has a small sum and a large absolute sum, so
+        it still splits. The rasterizer leaves it on ``means2d.absgrad``.
+        """
+        if self.gradient == "abs":
+            return getattr(means2d, "absgrad", None) if means2d.grad is not None else None
+        return means2d.grad
 
     def accumulate(self, state: dict[str, torch.Tensor], means2d_grad: torch.Tensor, radii: torch.Tensor, width: int, height: int) -> None:
         """Add one view's statistics. ``means2d_grad`` is dLoss/d(pixel position), (N, 2).
@@ -93,11 +110,12 @@ class DensifyStrategy(Strategy):
         stats = DensifyStats()
         if step >= cfg.densify_until:
             return stats
-        if out.means2d.grad is not None:
+        grad = self.view_gradient(out.means2d)
+        if grad is not None:
             # the render may have drawn fixed Gaussians after the trained ones (3D inpainting draws
             # the static scene behind them): the first rows are the params'
             n = params["means"].shape[0]
-            self.accumulate(state, out.means2d.grad[:n], out.radii[:n], camera.width, camera.height)
+            self.accumulate(state, grad[:n], out.radii[:n], camera.width, camera.height)
         if step > cfg.densify_from and step % cfg.densify_every == 0:
             stats = self.densify_and_prune(params, optimizers, state, prune_big=step > cfg.opacity_reset_every, generator=generator)
         if step > 0 and step % cfg.opacity_reset_every == 0:
@@ -119,7 +137,7 @@ class DensifyStrategy(Strategy):
         cfg = self.cfg
         n = params["means"].shape[0]
         grads = state["grad2d"] / state["count"].clamp_min(1)
-        high = grads >= cfg.grad_threshold
+        high = grads >= (cfg.abs_grad_threshold if self.gradient == "abs" else cfg.grad_threshold)
         max_scale = params["log_scales"].detach().exp().max(dim=-1).values
         small = max_scale <= cfg.percent_dense * self.extent
         if cfg.max_gaussians > 0:

@@ -138,7 +138,7 @@ class Trainer:
         cfg = self.cfg
         sh_degree = min(step // cfg.sh_degree_interval, cfg.sh_degree)  # one SH band more every interval
         bg = torch.rand(3, generator=gen) if cfg.random_background else self.background
-        return render(g, target.camera, sh_degree=sh_degree, background=bg, backend=cfg.backend)
+        return render(g, target.camera, sh_degree=sh_degree, background=bg, backend=cfg.backend, absgrad=self.absgrad)
 
     def _loss(self, out, target: Target, step: int):
         loss, l1, s = photometric_loss(out.color, target.data["image"], self.cfg.ssim_lambda)
@@ -150,13 +150,18 @@ class Trainer:
         lrs: dict[str, float | Callable[[int], float]] = dict(learning_rates(cfg, self.extent))
         lrs["means"] = lambda step: means_lr(step, cfg, self.extent)  # exponential decay (3DGS)
         self.init_info: dict = {}
+        start = init_gaussians(self.scene, cfg, self.init_info).to(self.device)
+        # a sparse capture (support points added) densifies on the absolute gradient (gs/strategy.py)
+        strategy = DensifyStrategy(cfg.densify, self.extent, sparse_start=self.init_info.get("support_points", 0) > 0)
+        self.init_info["densify_gradient"] = strategy.gradient
+        self.absgrad = strategy.gradient == "abs"
         self.loop = OptimizationLoop(
-            init_gaussians(self.scene, cfg, self.init_info).to(self.device),
+            start,
             train=lrs,
             views=self.source,
             render_fn=self._render,
             loss_fn=self._loss,
-            strategy=DensifyStrategy(cfg.densify, self.extent),
+            strategy=strategy,
             seed=cfg.seed,
             adam_eps=cfg.adam_eps,
             on_step=self.on_step,

@@ -74,6 +74,7 @@ def render(
     near: float = 0.01,
     far: float = 1e10,
     eps2d: float = 0.3,
+    absgrad: bool = False,
 ) -> RenderOutput:
     """Render colour, depth (Eq. 5), alpha and optionally features (Eq. 2) of Gaussians from one camera.
 
@@ -92,6 +93,8 @@ def render(
         near: Camera-space z (scene units) at or below which a Gaussian is culled.
         far: Camera-space z (scene units) at or beyond which a Gaussian is culled.
         eps2d: Low-pass dilation added to the 2D covariance diagonal, in pixels^2.
+        absgrad: At backward, also leave on ``means2d.absgrad`` (N, 2) the sums over each
+            Gaussian's pixels of the absolute per-pixel gradients of its centre (AbsGS).
 
     Returns:
         RenderOutput: color (H, W, 3), depth (H, W) (Eq. 5, not divided by alpha), alpha (H, W),
@@ -125,7 +128,7 @@ def render(
     if with_features:
         parts.append(g.features.to(dt))
     channels = torch.cat(parts, dim=-1)  # [rgb, z, features]: depth (Eq. 5) and features (Eq. 2) composite like colour
-    splats = Splats(means2d, conics, torch.sigmoid(g.opacity_logits), radii, depths, cam.width, cam.height)
+    splats = Splats(means2d, conics, torch.sigmoid(g.opacity_logits), radii, depths, cam.width, cam.height, absgrad=absgrad)
     image, alpha = rasterizer.rasterize(splats, channels)
     out = RenderOutput(
         color=image[..., :3] + (1.0 - alpha)[..., None] * bg,

@@ -33,6 +33,9 @@ class Splats:
     depths: torch.Tensor  # (N,) camera-space z of the centres (compositing order)
     width: int
     height: int
+    # also leave on ``means2d.absgrad`` (N, 2) the sums over each Gaussian's pixels of the absolute
+    # per-pixel gradients of its centre, at backward (AbsGS's densification statistic, gs/strategy.py)
+    absgrad: bool = False
 
 
 class RasterizerBackend(abc.ABC):

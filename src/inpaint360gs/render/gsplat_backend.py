@@ -11,8 +11,6 @@ from __future__ import annotations
 
 import importlib.util
 
-import importlib.util
-
 import torch
 
 from inpaint360gs.render.backends import RasterizerBackend, Splats
@@ -36,9 +34,13 @@ def rasterize_to_pixels_gsplat(splats: Splats, channels: torch.Tensor) -> tuple[
     tiles_x, tiles_y = tile_grid(width, height)
     _, isect_ids, flatten_ids = _isect_tiles(gsplat, means2d.detach(), radii, depths.detach(), tiles_x, tiles_y)
     offsets = gsplat.isect_offset_encode(isect_ids, 1, tiles_x, tiles_y)
+    batched = means2d[None].contiguous()
+    absgrad = splats.absgrad and means2d.requires_grad
+    if absgrad:  # gsplat leaves AbsGS's statistic on the tensor it got; hand it on to ours (gs/strategy.py)
+        batched.register_hook(lambda _grad: setattr(means2d, "absgrad", batched.absgrad[0]) if hasattr(batched, "absgrad") else None)
     img, alpha = gsplat.rasterize_to_pixels(
-        means2d[None].contiguous(), conics[None].contiguous(), channels[None].contiguous(), opacities[None].contiguous(),
-        width, height, TILE, offsets, flatten_ids,
+        batched, conics[None].contiguous(), channels[None].contiguous(), opacities[None].contiguous(),
+        width, height, TILE, offsets, flatten_ids, absgrad=absgrad,
     )  # fmt: skip
     return img[0], alpha[0, ..., 0]
 

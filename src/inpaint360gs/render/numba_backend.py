@@ -38,7 +38,7 @@ def prepare(means2d, conics, opacities, radii, depths, width: int, height: int):
 
 class _RasterizeNumba(torch.autograd.Function):
     @staticmethod
-    def forward(ctx, means2d, conics, opacities, channels, radii, depths, width: int, height: int):
+    def forward(ctx, means2d, conics, opacities, channels, radii, depths, width: int, height: int, absgrad: bool):
         import numba
 
         from inpaint360gs.render import numba_kernels as K
@@ -50,6 +50,9 @@ class _RasterizeNumba(torch.autograd.Function):
         img, t_final, last, _ = K.forward(pk, ch, offsets, gids, order, workers, width, height, tiles_x)
         ctx.state = (pk, ch, offsets, gids, order, width, height, tiles_x, t_final, last)
         ctx.dtypes = (means2d.dtype, conics.dtype, opacities.dtype, channels.dtype)
+        ctx.absgrad = absgrad
+        if absgrad:
+            ctx.save_for_backward(means2d)  # the caller's tensor: backward hangs ``absgrad`` on it
         return torch.from_numpy(img).to(channels.dtype), torch.from_numpy(1.0 - t_final).to(means2d.dtype)
 
     @staticmethod
@@ -63,10 +66,14 @@ class _RasterizeNumba(torch.autograd.Function):
         d_img = np.zeros((height, width, ch.shape[1]), np.float32) if d_img is None else to_f32(d_img)
         d_alpha = np.zeros((height, width), np.float32) if d_alpha is None else to_f32(d_alpha)
         workers = numba.get_num_threads()
-        rows = K.backward(pk, ch, offsets, gids, order, workers, width, height, tiles_x, t_final, last, d_img, d_alpha)
+        rows = K.backward(pk, ch, offsets, gids, order, workers, width, height, tiles_x, t_final, last, d_img, d_alpha, ctx.absgrad)
         g = torch.from_numpy(K.reduce_rows(rows, gids, pk.shape[0]))
         dm, dq, do, dc = ctx.dtypes
-        return g[:, 0:2].to(dm), g[:, 2:5].to(dq), g[:, 5].to(do), g[:, 6:].to(dc), None, None, None, None
+        C = ch.shape[1]
+        if ctx.absgrad:
+            (means2d,) = ctx.saved_tensors
+            means2d.absgrad = g[:, 6 + C : 8 + C].to(dm)  # sum over pixels of |dL/dmean2d| (gsplat's ``absgrad``)
+        return g[:, 0:2].to(dm), g[:, 2:5].to(dq), g[:, 5].to(do), g[:, 6 : 6 + C].to(dc), None, None, None, None, None
 
 
 def rasterize_to_pixels_numba(splats: Splats, channels: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -76,7 +83,7 @@ def rasterize_to_pixels_numba(splats: Splats, channels: torch.Tensor) -> tuple[t
         raise InputError(f"the numba backend needs CPU tensors, got {s.means2d.device}", "backend")
     if s.opacities.numel() and not bool(((s.opacities >= 0) & (s.opacities <= 1)).all()):
         raise InputError("opacities must lie in [0, 1] (the fast exp relies on it)", "opacities")
-    return _RasterizeNumba.apply(s.means2d, s.conics, s.opacities, channels, s.radii, s.depths, s.width, s.height)
+    return _RasterizeNumba.apply(s.means2d, s.conics, s.opacities, channels, s.radii, s.depths, s.width, s.height, s.absgrad)
 
 
 class NumbaBackend(RasterizerBackend):

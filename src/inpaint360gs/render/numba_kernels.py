@@ -408,8 +408,30 @@ def _bwd_pass3(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb):
 
 
 @njit(inline="always", **_OPTS)
-def _backward_tile(t, st, rows, pk, channels, offsets, gids, width, height, tiles_x, t_final, last_idx, d_img, d_alpha):
-    """Back-to-front gradient of tile ``t``: fills the rows of its intersections."""
+def _bwd_abs(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb):
+    """The sums over the pixels of |dL/du| and |dL/dv| of the 2D mean, each pixel's gradient taken
+    before summing (AbsGS's densification statistic). Reads the state :func:`_bwd_pass3` read; a
+    separate loop, so the plain gradients keep their bits when it is not asked for."""
+    a_mx = _ZERO
+    a_my = _ZERO
+    for p in range(lo, hi):
+        okp = st[_B_OK + p] > _ZERO
+        a = st[_B_A + p]
+        dla = st[_B_DLA + p] * st[_B_T + p] - st[_B_TFIN + p] / (_ONE - a) * st[_B_DTFIN + p]
+        gv = st[_B_G + p]
+        live = okp & (o * gv < _ALPHA_MAX)
+        d_pow = o * gv * (dla if live else _ZERO)
+        dx = mx - (xb + f32(p & _U15))
+        dy = my - (yb + f32(p >> _U4))
+        a_mx += abs(d_pow * (-ca * dx - cb * dy))
+        a_my += abs(d_pow * (-cc * dy - cb * dx))
+    return a_mx, a_my
+
+
+@njit(inline="always", **_OPTS)
+def _backward_tile(t, st, rows, pk, channels, offsets, gids, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, with_abs):
+    """Back-to-front gradient of tile ``t``: fills the rows of its intersections (with ``with_abs``,
+    also the absolute sums of :func:`_bwd_abs` in the last two columns)."""
     C = channels.shape[1]
     s, e = offsets[t], offsets[t + 1]
     x_base = (t % tiles_x) * TILE
@@ -450,6 +472,8 @@ def _backward_tile(t, st, rows, pk, channels, offsets, gids, width, height, tile
         for c in range(c_done, C):
             rows[k, 6 + c] = _bwd_pass2(st, lo, hi, U(_B_ROWS + 3 * c) * _UNPIX, channels[g, c])
         s_mx, s_my, s_ca, s_cb, s_cc, s_o = _bwd_pass3(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb)
+        if with_abs:  # pass 3 changed only _B_LA, which _bwd_abs does not read
+            rows[k, 6 + C], rows[k, 7 + C] = _bwd_abs(st, lo, hi, mx, my, ca, cb, cc, o, xb, yb)
         rows[k, 0] = s_mx
         rows[k, 1] = s_my
         rows[k, 2] = s_ca
@@ -459,27 +483,29 @@ def _backward_tile(t, st, rows, pk, channels, offsets, gids, width, height, tile
 
 
 @njit(nogil=True, **_OPTS)
-def _backward_worker(w, n_workers, pk, channels, offsets, gids, order, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, rows):
+def _backward_worker(w, n_workers, pk, channels, offsets, gids, order, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, rows, with_abs):
     """Worker ``w`` of ``n_workers`` of :func:`backward` (tiles dealt as in :func:`forward`)."""
     C = channels.shape[1]
     st = np.empty((_B_ROWS + 3 * C) * NPIX, np.float32)
     for j in range(w, order.shape[0], n_workers):
-        _backward_tile(order[j], st, rows, pk, channels, offsets, gids, width, height, tiles_x, t_final, last_idx, d_img, d_alpha)
+        _backward_tile(order[j], st, rows, pk, channels, offsets, gids, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, with_abs)
 
 
-def backward(pk, channels, offsets, gids, order, n_workers, width, height, tiles_x, t_final, last_idx, d_img, d_alpha):
-    """Back-to-front gradient -> rows (I, 6+C): intersection k's gradient w.r.t. (u, v, conic a, b, c, opacity, channels).
+def backward(pk, channels, offsets, gids, order, n_workers, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, with_abs=False):
+    """Back-to-front gradient -> rows (I, 6+C): intersection k's gradient w.r.t. (u, v, conic a, b, c, opacity, channels);
+    with ``with_abs``, (I, 8+C): then the sums over its pixels of |dL/du| and |dL/dv| (AbsGS).
 
     Work is split over tiles as in :func:`forward`.
     """
-    rows = np.zeros((gids.shape[0], 6 + channels.shape[1]), np.float32)
-    _run_workers(_backward_worker, n_workers, (pk, channels, offsets, gids, order, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, rows))
+    rows = np.zeros((gids.shape[0], (8 if with_abs else 6) + channels.shape[1]), np.float32)
+    args = (pk, channels, offsets, gids, order, width, height, tiles_x, t_final, last_idx, d_img, d_alpha, rows, bool(with_abs))
+    _run_workers(_backward_worker, n_workers, args)
     return rows
 
 
 @njit(**_OPTS)
 def reduce_rows(rows, gids, n):
-    """Sum intersection rows into per-Gaussian gradients (N, 6+C) in a fixed order (deterministic, no atomics)."""
+    """Sum intersection rows into per-Gaussian gradients (N, columns of ``rows``) in a fixed order (deterministic, no atomics)."""
     out = np.zeros((n, rows.shape[1]), np.float64)
     for k in range(rows.shape[0]):
         g = gids[k]

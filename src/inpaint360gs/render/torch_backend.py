@@ -17,6 +17,15 @@ from inpaint360gs.render.tiles import ALPHA_MAX, ALPHA_MIN, T_MIN, TILE, bin_gau
 DEFAULT_CHUNK_ELEMS = 1 << 22
 
 
+def _add_abs(into: torch.Tensor, ids: torch.Tensor):
+    """A gradient hook on per-pixel offsets (B, 256, L) that adds their absolute values per Gaussian into ``into``."""
+
+    def hook(grad: torch.Tensor) -> None:
+        into.index_add_(0, ids, grad.detach().abs().sum(1).flatten().to(into.dtype))
+
+    return hook
+
+
 def rasterize_to_pixels_torch(splats: Splats, channels: torch.Tensor, chunk_elems: int = DEFAULT_CHUNK_ELEMS) -> tuple[torch.Tensor, torch.Tensor]:
     """Alpha-composite per-Gaussian ``channels`` (N, C) front to back -> ((H, W, C) sums of c*alpha*T, (H, W) alpha)."""
     means2d, conics, opacities, radii, depths = splats.means2d, splats.conics, splats.opacities, splats.radii, splats.depths
@@ -36,6 +45,12 @@ def rasterize_to_pixels_torch(splats: Splats, channels: torch.Tensor, chunk_elem
     py_local = (local // TILE).to(dt) + 0.5
 
     tile_vals, tile_alpha, tile_index = [], [], []
+    # AbsGS's statistic (gs/strategy.py): the per-pixel gradients of each centre, summed as absolute
+    # values, gathered by hooks on the per-pixel offsets and left on ``means2d.absgrad``
+    absgrad = None
+    if splats.absgrad and means2d.requires_grad:
+        absgrad = torch.zeros(means2d.shape, dtype=means2d.dtype, device=dev)
+        means2d.absgrad = absgrad
     start = 0
     while start < len(busy_counts):
         # grow the batch while its padded size stays within the budget (counts ascend, so the last is the longest)
@@ -53,6 +68,10 @@ def rasterize_to_pixels_torch(splats: Splats, channels: torch.Tensor, chunk_elem
         py = (tiles // tiles_x * TILE).to(dt)[:, None] + py_local
         dx = means2d[g, 0][:, None, :] - px[:, :, None]  # (B, 256, L)
         dy = means2d[g, 1][:, None, :] - py[:, :, None]
+        if absgrad is not None:
+            ids = g.flatten()
+            dx.register_hook(_add_abs(absgrad[:, 0], ids))
+            dy.register_hook(_add_abs(absgrad[:, 1], ids))
         con = conics[g]
         power = -0.5 * (con[:, None, :, 0] * dx * dx + con[:, None, :, 2] * dy * dy) - con[:, None, :, 1] * dx * dy
         alpha = torch.clamp(opacities[g][:, None, :] * torch.exp(power), max=ALPHA_MAX)
