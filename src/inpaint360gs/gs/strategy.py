@@ -86,8 +86,10 @@ class DensifyStrategy(Strategy):
         pixels pull its centre in opposite directions has a small sum and a large absolute sum, so
         it still splits. The rasterizer leaves it on ``means2d.absgrad``.
         """
-        if self.gradient == "abs":
-            return getattr(means2d, "absgrad", None) if means2d.grad is not None else None
+        if self.gradient == "abs" and means2d.grad is not None:
+            if getattr(means2d, "absgrad", None) is None:  # a render without absgrad=True: never densify silently
+                raise RuntimeError("densifying on the absolute gradient needs render(..., absgrad=True)")
+            return means2d.absgrad
         return means2d.grad
 
     def accumulate(self, state: dict[str, torch.Tensor], means2d_grad: torch.Tensor, radii: torch.Tensor, width: int, height: int) -> None:
