@@ -737,6 +737,45 @@ def test_footprint_column_keeps_the_support_the_views_see_under_the_plane_and_ta
     out, _ = footprint_columns(means, opac, body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours)
     assert out[np.isin(part, [1, 2, 3, 4])].all()
 
+def test_footprint_column_keeps_sheet_under_the_plane_that_a_quarter_of_the_views_see_beside_the_object():
+    """A plain sheet's Gaussians under the plane behind the object's base lie in its silhouette in
+    most views and beside it in the rest (a low view sees them in front of the base). On and under
+    the plane nothing of the object is, so one that more than a quarter of the views see beside it
+    (``RemovalConfig.plane_silhouette``) in the sheet's colours stays; one seen beside it in fewer
+    goes. Over the object's top the test stays at half (``column_silhouette``): a faint Gaussian
+    there in the silhouette of 60 % of the views is the object's appearance and goes."""
+    from inpaint360gs.remove.geometry import footprint_columns
+
+    rng = np.random.default_rng(18)
+    floor = _grid_floor(rng)
+    floor = floor[(np.abs(floor[:, 0]) > 0.3) | (np.abs(floor[:, 1]) > 0.3)]
+    box = np.c_[rng.uniform(-0.25, 0.25, (800, 2)), rng.uniform(0.05, 0.5, 800)]
+    often = np.c_[rng.uniform(0.15, 0.25, (40, 1)), rng.uniform(-0.25, 0.25, (40, 1)), rng.uniform(-0.15, -0.04, 40)]
+    rarely = np.c_[rng.uniform(-0.25, -0.15, (40, 1)), rng.uniform(-0.25, 0.25, (40, 1)), rng.uniform(-0.15, -0.04, 40)]
+    top = np.c_[rng.uniform(-0.1, 0.1, (20, 2)), rng.uniform(0.52, 0.6, 20)]
+    means = np.concatenate([floor, box, often, rarely, top])
+    part = np.repeat([0, 1, 2, 3, 4], [len(floor), len(box), 40, 40, 20])
+    colours = np.clip(0.85 + rng.normal(0, 0.02, (len(means), 3)), 0, 1)  # an off-white sheet
+    colours[np.isin(part, [1, 4])] = (0.3, 0.2, 0.1)
+    colours[np.isin(part, [2, 3])] = 0.85 + rng.normal(0, 0.003, (80, 3))  # the sheet's colour
+    body = part == 1
+    in_silhouette = {2: 0.6, 3: 0.85, 4: 0.6}
+
+    def share(indices, body_):
+        return np.array([in_silhouette.get(int(p), 1.0) for p in part[indices]])
+
+    up = np.array([0.0, 0.0, 1.0])
+    opac = np.full(len(means), 0.9)
+    counts = {}
+    out, _ = footprint_columns(means, opac, body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), counts, colours, share)
+    assert out[np.isin(part, [1, 3, 4])].all()  # the box, sheet only a few views see beside it, the top's appearance
+    assert not out[part == 2].any() and not out[part == 0].any()
+    assert counts["footprint"][0]["support_beside_under_plane"] == 40
+    # at the over-the-top test's half, the sheet seen beside the base in 40 % of the views would go
+    out, _ = footprint_columns(means, opac, body.copy(), [body], np.zeros_like(body), up, RemovalConfig(plane_silhouette=0.5), {}, colours, share)
+    assert out[part == 2].all()
+
+
 def test_footprint_column_keeps_the_support_the_views_see_beside_the_object():
     """A box with a spout reaching over the floor: the outline on the plane covers floor under the
     spout that the photos see beside the object. On the plane, a Gaussian the selection did not

@@ -27,6 +27,7 @@ class RemovalConfig:
     footprint_margin: float | None = 0.05  # step 4: the footprint column, the outline grown by this x the footprint's size (None: off)
     footprint_depth: float = 1.0  # step 4: the column starts this x the object's height below the support plane (below it, inside the outline, only the hole shows it)
     column_silhouette: float | None = 0.5  # step 4: over the object's top, a Gaussian goes when its centre lies in the object's silhouette in this share of the views showing it (None: all go)
+    plane_silhouette: float = 0.75  # step 4: on and under the support plane, a Gaussian in the support's colours stays unless its centre lies in the standing object's silhouette in this share of the views showing it (with column_silhouette None: no test)
     support_band: float = 0.05  # step 4: selected Gaussians within this x the object's height of the plane ...
     support_reach: float = 0.25  # ... farther than this x the footprint's size from its outline, in the support's colours around it, are support: they stay
     low_parts: float | None = 0.25  # step 4: unselected Gaussians lower than core.support.STANDING x the object's height, linked to what goes, within this x the footprint's size of its outline and nearer the object's chromaticity than the support's, are the object's low parts: they go (None: off)
@@ -39,7 +40,7 @@ class RemovalConfig:
         from inpaint360gs.core.settings import check_fields
 
         check_fields(self)
-        shares = ("threshold", "min_part", "protect_background", "mask_share", "column_silhouette")  # in [0, 1]
+        shares = ("threshold", "min_part", "protect_background", "mask_share", "column_silhouette", "plane_silhouette")  # in [0, 1]
         for name, value in vars(self).items():
             if value is None or isinstance(value, bool):
                 continue

@@ -116,8 +116,8 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
     Gaussian in which its centre lies in the silhouette of ``body``; given, a Gaussian of the column
     higher than the object goes only when that share reaches ``cfg.column_silhouette`` (None: the
     whole column to its top; on and under the plane a Gaussian, the selection's own too, stays
-    when its share of the silhouette of ``body`` standing above the plane is below it and it has
-    the colour of the support next to it and not the object's). With ``cfg.low_parts``, low
+    when its share of the silhouette of ``body`` standing above the plane is below
+    ``cfg.plane_silhouette`` and it has the colour of the support next to it and not the object's). With ``cfg.low_parts``, low
     unselected Gaussians linked to what goes and nearer the object's colour go too. Returns the new
     flags and the footprints found;
     ``counts`` records what the step did (or why it did not)."""
@@ -158,7 +158,14 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
         dropped = 0
         beside = np.zeros_like(remove)
         if silhouette_share is not None and cfg.column_silhouette is not None and len(high) + len(flat):
-            off = silhouette_share(np.concatenate([high, flat]), body & (h > cfg.support_band * fp.height) & ~apart) < cfg.column_silhouette
+            # on and under the plane nothing of the standing object is: a Gaussian there that a
+            # quarter of the views see beside the object colours the support in those views (a
+            # plain sheet's Gaussians spread under the plane behind the object's base), while the
+            # others see it behind the object; over the top and apart from the body, half
+            on_plane = np.zeros(len(high) + len(flat), dtype=bool)
+            on_plane[len(high) :] = ~apart[flat]
+            limit = np.where(on_plane, cfg.plane_silhouette, cfg.column_silhouette)
+            off = silhouette_share(np.concatenate([high, flat]), body & (h > cfg.support_band * fp.height) & ~apart) < limit
             column[high[off[: len(high)]]] = False
             beside[flat[off[len(high) :]]] = True
             dropped = int(off[: len(high)].sum())
