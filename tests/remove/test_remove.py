@@ -774,6 +774,8 @@ def test_footprint_column_keeps_sheet_under_the_plane_that_a_quarter_of_the_view
     # at the over-the-top test's half, the sheet seen beside the base in 40 % of the views would go
     out, _ = footprint_columns(means, opac, body.copy(), [body], np.zeros_like(body), up, RemovalConfig(plane_silhouette=0.5), {}, colours, share)
     assert out[part == 2].all()
+    with pytest.raises(InputError, match="RemovalConfig.plane_silhouette"):
+        RemovalConfig(plane_silhouette=1.5).validate()
 
 
 def test_footprint_column_keeps_the_support_the_views_see_beside_the_object():
