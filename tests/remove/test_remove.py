@@ -737,6 +737,7 @@ def test_footprint_column_keeps_the_support_the_views_see_under_the_plane_and_ta
     out, _ = footprint_columns(means, opac, body.copy(), [body], np.zeros_like(body), up, RemovalConfig(), {}, colours)
     assert out[np.isin(part, [1, 2, 3, 4])].all()
 
+
 def test_footprint_column_keeps_sheet_under_the_plane_that_a_quarter_of_the_views_see_beside_the_object():
     """A plain sheet's Gaussians under the plane behind the object's base lie in its silhouette in
     most views and beside it in the rest (a low view sees them in front of the base). On and under

@@ -117,8 +117,9 @@ def footprint_columns(means: np.ndarray, opacities: np.ndarray, remove: np.ndarr
     higher than the object goes only when that share reaches ``cfg.column_silhouette`` (None: the
     whole column to its top; on and under the plane a Gaussian, the selection's own too, stays
     when its share of the silhouette of ``body`` standing above the plane is below
-    ``cfg.plane_silhouette`` and it has the colour of the support next to it and not the object's). With ``cfg.low_parts``, low
-    unselected Gaussians linked to what goes and nearer the object's colour go too. Returns the new
+    ``cfg.plane_silhouette`` and it has the colour of the support next to it and not the object's).
+    With ``cfg.low_parts``, low unselected Gaussians linked to what goes and nearer the object's
+    colour go too. Returns the new
     flags and the footprints found;
     ``counts`` records what the step did (or why it did not)."""
     from inpaint360gs.core.support import STANDING, object_footprint
