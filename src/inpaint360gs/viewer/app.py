@@ -308,6 +308,7 @@ class ViewerApp:
         with self.lock:
             c, line = self.session.click_ray(origin, direction, wait=False)
             self.show_view(self.current if c is None else self.scene.view(c.view), move=False)
+            self.server.flush()  # the panel's photo and mask in a batch of their own (see :meth:`click`)
             self.show_selection()
             return line
 
@@ -317,14 +318,18 @@ class ViewerApp:
         with self.lock:
             line = self.session.click(click, wait=False)
             self.show_view(self.scene.view(click.view), move=False)  # the photo with its mask first: the cheaper to draw
+            # sent now, alone: the page applies a batch of panel-only messages at once, but one that
+            # also changes the 3D scene waits for the next 3D frame (slow under software WebGL)
+            self.server.flush()
             self.show_selection()
             return line
 
     def _clear(self) -> None:
         with self.lock:
             self.session.clear()
-            self.show_selection()
             self.show_view(self.current, move=False)
+            self.server.flush()  # the panel first, in a batch of its own (see :meth:`click`)
+            self.show_selection()
 
     def _save(self) -> None:
         with self.lock:
