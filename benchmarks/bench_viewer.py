@@ -43,6 +43,11 @@ def scene_drawn(img: np.ndarray) -> bool:
     return float(((spread > 20) & (view.max(axis=-1) < 250)).mean()) > 0.02
 
 
+def changed(img: np.ndarray, before: np.ndarray) -> float:
+    """The share of pixels that changed visibly (any channel by more than 30 of 255)."""
+    return float((np.abs(img - before).max(axis=-1) > 30).mean())
+
+
 def wait_for(browser: Browser, test, t0: float, timeout: float = 120.0) -> float:
     while time.perf_counter() - t0 < timeout:
         if test(browser.screenshot()):
@@ -74,6 +79,21 @@ def first_frame(args, browser: Browser) -> dict:
     return {"view: URL printed (s)": ready, "view: scene loaded (s)": times[0] if times else float("nan"), "view: first frame with the splats (s)": frame}
 
 
+def look_from_behind(app, view) -> None:
+    """The page's camera at the clicked camera's pose, moved back along its axis by five depths of its
+    frustum's photo: the selection lies in the 3D view, the frustum's photo covers a small part of it."""
+    from inpaint360gs.viewer.session import camera_pose, frustum_depth, frustum_shape
+
+    wxyz, pos = camera_pose(view.camera)
+    fov, aspect = frustum_shape(view.camera)
+    back = pos - 5.0 * frustum_depth(fov, aspect, app.scale) * view.camera.R.double().numpy()[2]
+    for client in app.server.get_clients().values():
+        with client.atomic():
+            client.camera.fov = fov
+            client.camera.wxyz = wxyz
+            client.camera.position = back
+
+
 def click_times(args, browser: Browser) -> dict:
     from inpaint360gs.io.scene import load_scene
     from inpaint360gs.pipeline.presets import get_preset
@@ -95,6 +115,7 @@ def click_times(args, browser: Browser) -> dict:
         click = Click.parse(args.click)
         view = scene.view(click.view)
         app.show_view(view, move=False)
+        look_from_behind(app, view)
         session.id_map(view)  # the shown photo's id map, which the page renders when a camera is chosen
         out["viewer warm: support plane, projections, the shown photo's id map (s)"] = time.perf_counter() - t0
         time.sleep(1.0)
@@ -103,12 +124,17 @@ def click_times(args, browser: Browser) -> dict:
         ray = ray_through_pixel(view, click.x, click.y, origin, frustum_depth(fov, aspect, app.scale))
         for what, do in (("select", lambda: app.click(click)), ("drop", lambda: app.click(click)), ("on the splats", lambda: app.on_splat_click(origin, ray))):
             time.sleep(1.0)
+            t0 = time.perf_counter()
             before = browser.screenshot()
+            # a capture draws a frame of the page: its time is the floor of every "drawn" below
+            out[f"click ({what}): one screenshot of the page, nothing changed (s)"] = time.perf_counter() - t0
             t0 = time.perf_counter()
             do()
             t_sent = time.perf_counter() - t0
-            drawn = wait_for(browser, lambda img: float((np.abs(img - before).max(axis=-1) > 30).mean()) > 0.002, t0)
-            out |= {f"click ({what}): computed and sent (s)": t_sent, f"click ({what}): drawn (s)": drawn}
+            drawn = wait_for(browser, lambda img: changed(img, before) > 0.002, t0)
+            in_3d = wait_for(browser, lambda img: changed(img[:, : int(img.shape[1] * 0.72)], before[:, : int(img.shape[1] * 0.72)]) > 0.002, t0)
+            out |= {f"click ({what}): computed and sent (s)": t_sent, f"click ({what}): drawn, first change (s)": drawn,
+                    f"click ({what}): drawn in the 3D view (s)": in_3d}  # fmt: skip
         out["selection check"] = session.verdict() if session.plan else "(dropped)"
     finally:
         app.stop()
