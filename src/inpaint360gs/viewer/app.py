@@ -307,9 +307,7 @@ class ViewerApp:
         photo click at the pixel it projects to), drawn. Returns the session's line."""
         with self.lock:
             c, line = self.session.click_ray(origin, direction, wait=False)
-            self.show_view(self.current if c is None else self.scene.view(c.view), move=False)
-            self.server.flush()  # the panel's photo and mask in a batch of their own (see :meth:`click`)
-            self.show_selection()
+            self._show_clicked(self.current if c is None else self.scene.view(c.view))
             return line
 
     def click(self, click: Click) -> str:
@@ -317,19 +315,21 @@ class ViewerApp:
         (:meth:`.session.ViewerSession.click` without waiting: the panel's line when it is done)."""
         with self.lock:
             line = self.session.click(click, wait=False)
-            self.show_view(self.scene.view(click.view), move=False)  # the photo with its mask first: the cheaper to draw
-            # sent now, alone: the page applies a batch of panel-only messages at once, but one that
-            # also changes the 3D scene waits for the next 3D frame (slow under software WebGL)
-            self.server.flush()
-            self.show_selection()
+            self._show_clicked(self.scene.view(click.view))
             return line
+
+    def _show_clicked(self, view) -> None:
+        """After a change of the selection: the panel's photo with its mask, then the 3D selection."""
+        self.show_view(view, move=False)
+        # sent now, alone: the page applies a batch of panel-only messages at once, but one that also
+        # changes the 3D scene waits for the next 3D frame (slow under software WebGL)
+        self.server.flush()
+        self.show_selection()
 
     def _clear(self) -> None:
         with self.lock:
             self.session.clear()
-            self.show_view(self.current, move=False)
-            self.server.flush()  # the panel first, in a batch of its own (see :meth:`click`)
-            self.show_selection()
+            self._show_clicked(self.current)
 
     def _save(self) -> None:
         with self.lock:
