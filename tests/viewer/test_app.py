@@ -173,27 +173,42 @@ def test_a_shift_click_on_the_splats_in_the_browser_selects_the_blob_under_it(ma
     assert share_near(shot / 255.0, blob1) > 0.0008  # the other blob is drawn untinted
 
 
-def test_the_page_draws_the_most_opaque_splats_and_the_selected_ones_among_them(make_blobs_scene, tmp_path):
-    """In-process (no browser): with ``max_splats`` the 'before' node holds the most opaque splats,
-    a click's selection node the selected ones among them, and "all" sends every splat (and the
-    whole selection)."""
+def test_the_page_draws_the_most_opaque_splats_and_the_selected_ones_among_them_tinted(make_blobs_scene, tmp_path):
+    """In-process (no browser): with ``max_splats`` the 'before' node holds the most opaque splats;
+    a click tints the selected ones among them in that node (half the tint, the rest untouched), a
+    second click on them gives the colours back, and "all" sends every splat (the whole selection
+    tinted)."""
     scene, model, labels, session = blobs_session(make_blobs_scene, tmp_path, "few", 6)
     k = len(model) // 3
     app = ViewerApp(session, port=0, max_splats=k, background=False)
+
+    def colours(node) -> np.ndarray:
+        return node.buffer[:, 7:8].view(np.uint8).reshape(-1, 4)[:, :3].astype(np.float64) / 255.0
+
     try:
         _, _, keep, node = app.splats["before"]
         opacity = model.opacities.detach().numpy()
         assert len(keep) == k and node.buffer.shape[0] == k and opacity[keep].min() >= np.delete(opacity, keep).max()
         centres = node.buffer[:, :3].view(np.float32)
         assert np.allclose(centres, model.means.detach().numpy()[keep])
-        app.click(click_on(scene.train_views[0], BLOB_2))
+        rgbs = splat_arrays(model)["rgbs"].astype(np.float64)
+        assert np.allclose(colours(node), rgbs[keep], atol=1 / 255)
+        click = click_on(scene.train_views[0], BLOB_2)
+        app.click(click)
         sel = session.selected()
-        shown = keep[sel[keep]]
-        assert len(shown) > 0 and app.selection_node.buffer.shape[0] == len(shown)
-        assert np.allclose(app.selection_node.buffer[:, :3].view(np.float32), model.means.detach().numpy()[shown])
+        shown = sel[keep]
+        assert shown.sum() > 0 and (~shown).sum() > 0
+        assert np.allclose(colours(node)[shown], 0.5 * rgbs[keep][shown] + 0.5 * SELECTED_TINT, atol=1.5 / 255)
+        assert np.allclose(colours(node)[~shown], rgbs[keep][~shown], atol=1 / 255)
+        assert np.allclose(node.buffer[:, :7].view(np.float32)[:, :3], centres)  # only the colours change
+        app.click(click)  # drops it: the colours as sent
+        assert session.selected() is None and np.allclose(colours(node), rgbs[keep], atol=1 / 255)
+        app.click(click)
         app.set_max_splats(0)
-        assert app.splats["before"][2] is None and app.splats["before"][3].buffer.shape[0] == len(model)
-        assert app.selection_node.buffer.shape[0] == int(sel.sum())
+        node = app.splats["before"][3]
+        assert app.splats["before"][2] is None and node.buffer.shape[0] == len(model)
+        assert np.allclose(colours(node)[sel], 0.5 * rgbs[sel] + 0.5 * SELECTED_TINT, atol=1.5 / 255)
+        assert np.allclose(colours(node)[~sel], rgbs[~sel], atol=1 / 255)
     finally:
         app.stop()
 

@@ -6,7 +6,8 @@ this module puts it in the page and turns the page's events into the session's c
   stage's sent once and shown or hidden. Only the ``max_splats`` most opaque are drawn unless the
   panel's "splats" says all (a browser without a GPU draws a few thousand splats in seconds, the
   tens of thousands of a trained scene in tens of seconds). The selected ones among them are drawn
-  over them tinted red (a node of their own, so a click sends only the selection). Shift-clicking on
+  tinted red: the 'before' node's colours changed in place (a node added or removed would make the
+  page rebuild all its splats). Shift-clicking on
   the splats selects the object the ray hits first (:meth:`.session.ViewerSession.click_ray`: the
   photo click at the pixel it projects to).
 * Each training camera as a frustum with its photo. Clicking a frustum chooses that camera (the
@@ -24,7 +25,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from inpaint360gs.core.errors import InputError
 from inpaint360gs.pipeline.run import STAGES
@@ -35,7 +35,6 @@ from inpaint360gs.viewer.session import MODES, ViewerSession, camera_pose, frust
 
 SELECTED_TINT = np.array([1.0, 0.1, 0.1], np.float32)  # colour the selected Gaussians are drawn in (half-blended)
 THUMB_WIDTH = 320  # the photos on the frustums are sent at most this wide
-SELECTION_GROWTH = 1.3  # the selection's tinted splats are drawn this much larger than the Gaussians
 
 
 def _thumb(img: np.ndarray) -> np.ndarray:
@@ -74,7 +73,7 @@ class ViewerApp:
         self._colors = {}  # frustum -> the colour it was last given
         self.max_splats = self.few_splats = max_splats
         self.splats = {}  # mode -> (the PLY's mtime, max_splats it was sent with, indices sent or None for all, the node)
-        self.selection_node = None
+        self._untinted = None  # (the 'before' node, its colours as sent: buffer column 7)
         if sent is not None and session.ply("before").is_file() and sent[:2] == (session.ply("before").stat().st_mtime, max_splats):
             self.splats["before"] = sent
         self._poller = None
@@ -238,27 +237,33 @@ class ViewerApp:
             self.show_splats()
 
     def show_selection(self) -> None:
-        """Draw the selected Gaussians over the 'before' splats, tinted (:data:`SELECTED_TINT`
-        half-blended), as a node of their own; nothing in the other modes."""
+        """Draw the selected Gaussians tinted (:data:`SELECTED_TINT` half-blended) in the 'before'
+        splats themselves, untinted in the other modes and without a selection.
+
+        The tint is a change of the 'before' node's colours in place: the page then updates its
+        splat texture and re-sorts, where a node added or removed makes it rebuild every splat node's
+        buffers and meshes, seconds under software WebGL (README "Viewer")."""
         with self.lock:
-            if self.selection_node is not None:
-                self.selection_node.remove()
-                self.selection_node = None
+            have = self.splats.get("before")
+            if have is None:
+                return
+            _, _, keep, node = have
+            if self._untinted is None or self._untinted[0] is not node:  # a node sent anew: its own colours
+                self._untinted = (node, node.buffer[:, 7].copy())
+            base = self._untinted[1]
             sel = self.session.selected() if self.mode == "before" else None
             g = self.session.gaussians("before") if sel is not None else None
-            if g is None or len(sel) != len(g) or "before" not in self.splats:
-                return
-            keep = self.splats["before"][2]
-            idx = np.flatnonzero(sel) if keep is None else keep[sel[keep]]  # the selected ones among those drawn
-            if len(idx) == 0:
-                return
-            arr = splat_arrays(g.subset(torch.from_numpy(idx)))
-            arr["rgbs"] = 0.5 * arr["rgbs"] + 0.5 * SELECTED_TINT
-            # over the untinted copies at the same centres: a little larger and nearly opaque, so that
-            # the tinted ones lie in front from every side
-            arr["covariances"] = arr["covariances"] * SELECTION_GROWTH**2
-            arr["opacities"] = np.maximum(arr["opacities"], 0.9)
-            self.selection_node = self.server.scene.add_gaussian_splats("/selection", **arr)
+            idx = np.zeros(0, np.int64)
+            if g is not None and len(sel) == len(g):  # the field's Gaussians are the drawn model's
+                idx = np.flatnonzero(sel if keep is None else sel[keep])  # positions in the node of the selected ones drawn
+            rgba = base.copy()
+            if len(idx):
+                rgb = rgba.view(np.uint8).reshape(-1, 4)[idx, :3].astype(np.float32)
+                rgba.view(np.uint8).reshape(-1, 4)[idx, :3] = np.round(0.5 * rgb + 127.5 * SELECTED_TINT).astype(np.uint8)
+            if not np.array_equal(rgba, node.buffer[:, 7]):  # each update is a message and a re-sort in the page
+                buf = node.buffer.copy()
+                buf[:, 7] = rgba
+                node.buffer = buf
 
     def set_mode(self, mode: str) -> None:
         with self.lock:
