@@ -45,6 +45,36 @@ def test_scores_of_a_clean_removal(removal, capsys):
     assert "Standing in the footprint column" in out
 
 
+def test_a_result_that_leaves_half_the_object_fails_the_beside_check(removal, tmp_path):
+    """The removal of one half of blob 3 (the field labels the other half background) leaves that
+    half just outside the removed half's footprint. Taken as the run's final scene (an inpainting
+    that changed nothing), the run check's ``beside_inpainted`` fails on it and passes on the
+    removal of the whole blob; after ``remove`` the score is reported, not judged."""
+    from inpaint360gs.evaluate.capture import CaptureRun, score_capture
+    from inpaint360gs.evaluate.limits import CheckLimits
+    from inpaint360gs.io.ply import read_ply
+    from inpaint360gs.pipeline.check import score_checks
+
+    base, root, _ = removal
+    scene = load_scene(root)
+    model = read_ply(base / "3dgs" / "point_cloud.ply")
+    labels = sb.blobs_model()[1]  # the fixture's model's labels (blob 3 is label 1)
+    half = labels.clone()
+    blob = labels == 1
+    x = model.means[:, 0]
+    half[blob & (x > x[blob].median())] = 0
+    write_field(tmp_path / "distill", labelled_field(model, half, IDS), scene)
+    remove_stage(scene, labelled_field(model, half, IDS), tmp_path / "removed", ids=[3])
+    checks = {}
+    for name, distill, removed in (("whole", base / "distill", base / "removed"), ("half", tmp_path / "distill", tmp_path / "removed")):
+        scores, _ = score_capture(scene, CaptureRun(base / "3dgs" / "point_cloud.ply", distill, removed, removed))
+        checks[name] = {c.name: c for stage in ("remove", "inpaint") for c in score_checks(scores, CheckLimits(), stage)}
+    assert checks["whole"]["beside_inpainted"].passed and checks["whole"]["beside_inpainted"].value < 0.005
+    half_left = checks["half"]["beside_inpainted"]
+    assert not half_left.passed and half_left.value > 0.5  # the half left is about as large as the footprint
+    assert checks["half"]["beside_removed"].passed and checks["half"]["beside_removed"].value == half_left.value  # reported only
+
+
 def test_another_scenes_removal_is_refused(removal, capsys):
     base, _, other = removal
     argv = [str(other), str(base / "3dgs" / "point_cloud.ply"), str(base / "distill"), str(base / "removed"), str(base / "x.json")]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from inpaint360gs.core.support import fit_plane, object_footprint
-from inpaint360gs.metrics.capture import grow, psnr_outside, standing_share, texture_ratios
+from inpaint360gs.metrics.capture import grow, object_beside, psnr_outside, standing_share, texture_ratios
 
 
 def test_psnr_outside_ignores_the_grown_footprint():
@@ -42,6 +42,34 @@ def test_texture_ratios_flat_and_textured_fill():
     dark[hole] *= 0.5
     assert texture_ratios(dark, hole, 10).luminance == pytest.approx(0.5, abs=0.03)
     assert texture_ratios(img, np.zeros((80, 80), bool)) is None
+
+
+def test_object_beside_counts_the_objects_colours_left_next_to_its_footprint():
+    """A yellow-and-black disc on a grey-and-white checker: a clean removal's band reads 0; a patch of
+    the disc's colours left just outside the footprint reads its area over the footprint's; a patch of
+    the checker's colours (support that looks like its surroundings) and a patch far from the
+    footprint read 0."""
+    h, w = 120, 160
+    yy, xx = np.mgrid[:h, :w]
+    support = np.where(((yy // 8 + xx // 8) % 2)[..., None] == 1, [0.9, 0.9, 0.9], [0.45, 0.45, 0.5])
+    disc = (yy - 60) ** 2 + (xx - 80) ** 2 <= 25**2
+    photo = support.copy()
+    photo[disc] = np.where(((xx // 6) % 2 == 0)[disc][:, None], [0.95, 0.8, 0.1], [0.05, 0.05, 0.05])
+    clean = support.copy()  # the removed render: the support where the object stood
+    assert object_beside(clean, photo, disc) == 0.0
+    left = clean.copy()
+    patch = np.zeros((h, w), bool)
+    patch[55:65, 107:112] = True  # 2-7 px outside the disc's edge (x = 105): in the 10-px band
+    assert not disc[patch].any() and grow(disc, 10)[patch].all()
+    left[patch] = [0.95, 0.8, 0.1]  # a yellow part of the object left there
+    assert object_beside(left, photo, disc) == pytest.approx(patch.sum() / disc.sum())
+    grey = clean.copy()
+    grey[patch] = [0.45, 0.45, 0.5]  # the support's own colour
+    assert object_beside(grey, photo, disc) == 0.0
+    far = clean.copy()
+    far[5:15, 5:15] = [0.95, 0.8, 0.1]  # the object's colour, but far from its footprint
+    assert object_beside(far, photo, disc) == 0.0
+    assert object_beside(clean, photo, np.zeros((h, w), bool)) is None
 
 
 def test_fit_plane_ignores_what_stands_on_it():

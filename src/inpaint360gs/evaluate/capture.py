@@ -21,7 +21,7 @@ from inpaint360gs.core.support import Footprint, object_footprint
 from inpaint360gs.evaluate.limits import CheckLimits
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.metrics.capture import neighbour_gaussians, psnr_outside, standing_mass, standing_share, texture_ratios
+from inpaint360gs.metrics.capture import neighbour_gaussians, object_beside, psnr_outside, standing_mass, standing_share, texture_ratios
 from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import footprint
 
@@ -92,7 +92,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
     # the removed Gaussians' footprint, floaters hanging near a camera left out (views/unseen.footprint):
     # a haze in front of a held-out view would leave it empty and score the whole object as "outside"
     fps = {v.name: footprint(distilled, removed, v.camera, near=NEAR_CAMERA) for v in views}
-    scores: dict = {"psnr_outside": {}, "texture": {}, "standing": {}}
+    scores: dict = {"psnr_outside": {}, "texture": {}, "standing": {}, "beside": {}}
     renders: dict[str, dict[str, np.ndarray]] = {k: {} for k in models}
     with torch.no_grad():
         for split, vs in splits.items():
@@ -113,6 +113,9 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
             "ring_laplacian": float(np.nanmean([r.ring_laplacian for r in ratios])) if ratios else None,
             "views": len(ratios),
         }
+        shares = [b for v in splits["train"] if (b := object_beside(renders[name][v.name], scene.load_image(v).numpy(), fps[v.name])) is not None]
+        scores["beside"][name] = {"share": float(np.mean(shares)) if shares else None, "worst_view": float(np.max(shares)) if shares else None,
+                                  "views": len(shares)}  # fmt: skip
     means = distilled.means.detach().double().numpy()
     opac = distilled.opacities.detach().double().numpy()
     rm = removed.numpy()
@@ -185,6 +188,13 @@ def format_scores(scores: dict, limits: CheckLimits | None = None) -> str:
         lap = "n/a" if x["laplacian"] is None else f"{x['laplacian']:.2f}"
         lum = "n/a" if x["luminance"] is None else f"{x['luminance']:.2f}"
         lines.append(f"  {name:10s} |Laplacian| {lap:>5s} (target {lim.laplacian[0]}-{lim.laplacian[1]})   luminance {lum:>5s} (target 1 +- {lim.luminance})   over {x['views']} views")
+    if scores.get("beside"):
+        lines.append("The object's colours just outside the footprint (10 px), none of the colours 20-40 px around it, as a share of the footprint's area, at the training cameras:")
+        for name, b in scores["beside"].items():
+            share = "n/a" if b["share"] is None else f"{100 * b['share']:.2f} %"
+            worst = "" if b["worst_view"] is None else f", worst view {100 * b['worst_view']:.2f} %"
+            target = f"   (target <= {100 * lim.beside:g} %)" if name == "inpainted" and lim.beside is not None else ""
+            lines.append(f"  {name:10s} {share:>8s}{worst} over {b['views']} views{target}")
     return "\n".join(lines)
 
 
@@ -215,6 +225,8 @@ def worst_case(scores: list[dict], limits: CheckLimits | None = None) -> dict:
                                              lambda w: w <= lim.outside_drop_db, f"<= {lim.outside_drop_db} dB")  # fmt: skip
     for name in ("removed", "inpainted"):
         rows[f"standing_{name}"] = (collect(lambda s: s["standing"][name]["share"]), max, lambda w: w <= lim.standing, f"<= {lim.standing}")
+    rows["beside_inpainted"] = (collect(lambda s: s["beside"]["inpainted"]["share"]), max,
+                                lambda w: lim.beside is None or w <= lim.beside, f"<= {lim.beside}")  # fmt: skip
     rows["fill_laplacian"] = (collect(lambda s: s["texture"]["inpainted"]["laplacian"]), lambda v: max(v, key=lambda x: abs(np.log(max(x, 1e-9)))),
                               lambda w: lo <= w <= hi, f"{lo}-{hi}")  # fmt: skip
     rows["fill_luminance"] = (collect(lambda s: s["texture"]["inpainted"]["luminance"]), lambda v: max(v, key=lambda x: abs(x - 1.0)),

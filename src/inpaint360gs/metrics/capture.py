@@ -7,7 +7,9 @@ filled region with (docs/architecture.md, "Real captures"). What can be scored:
   footprint column (its centres projected onto the support plane), the opacity-weighted share
   standing higher above the plane than a fraction of the object's height (:func:`standing_share`);
 - **the fill belongs**: texture energy (mean absolute Laplacian of the luminance) and mean
-  luminance inside the hole against a ring around it (:func:`texture_ratios`).
+  luminance inside the hole against a ring around it (:func:`texture_ratios`);
+- **nothing of the object is left beside it**: the pixels just outside the footprint that show the
+  object's colours and none of the colours around it (:func:`object_beside`).
 
 Pure functions on arrays (the footprint's geometry is :mod:`inpaint360gs.core.support`'s); the
 benchmark script ``benchmarks/bench_capture.py`` applies them to a run.
@@ -67,6 +69,40 @@ def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> Te
         luminance=float(luma[hole].mean() / ring_luma) if ring_luma > 0 else float("nan"),
         ring_laplacian=float(ring_lap),
     )
+
+
+def object_beside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, band_px: int = 10, ring_px: tuple[int, int] = (20, 40),
+                  min_distance: float = 12.0, samples: int = 4000) -> float | None:  # fmt: skip
+    """The object's parts left beside its footprint in ``render`` (H, W, 3 in [0, 1]), as a share of
+    the footprint's area: the pixels of the band ``band_px`` wide just outside ``footprint`` whose
+    colour (CIE Lab) lies farther than ``min_distance`` from every colour of ``photo`` in the ring
+    ``ring_px`` outside it (the support and whatever else lies round the object) and less than half
+    as far from a colour of ``photo`` inside it (the object as photographed). A toy's feet, a
+    bucket's teeth or a dark contact rim that the removal left score their area; support that looks
+    like its surroundings scores 0. Each colour set is a fixed-seed sample of at most ``samples``
+    pixels. None when the footprint, the band or the ring is empty."""
+    from scipy.spatial import cKDTree
+
+    hole = footprint.astype(bool)
+    band = grow(hole, band_px) & ~hole
+    ring = grow(hole, ring_px[1]) & ~grow(hole, ring_px[0])
+    if not hole.any() or not band.any() or not ring.any():
+        return None
+
+    def lab(img: np.ndarray) -> np.ndarray:
+        return cv2.cvtColor(np.clip(img, 0, 1).astype(np.float32), cv2.COLOR_RGB2Lab)
+
+    photo_lab = lab(photo)
+    rng = np.random.default_rng(0)
+
+    def sample(pixels: np.ndarray) -> cKDTree:
+        return cKDTree(pixels[rng.choice(len(pixels), samples, replace=False)] if len(pixels) > samples else pixels)
+
+    inside, around = sample(photo_lab[hole]), sample(photo_lab[ring])
+    colours = lab(render)[band]
+    d_obj, _ = inside.query(colours)
+    d_around, _ = around.query(colours)
+    return float(((d_around > min_distance) & (d_obj < 0.5 * d_around)).sum() / hole.sum())
 
 
 OPAQUE_ABOVE_TOP = 0.5  # over the object's top only Gaussians at least this opaque count as standing (see standing_share)

@@ -15,6 +15,10 @@ capture without ground truth allows (:mod:`inpaint360gs.evaluate.capture`) and w
   after removal / after inpainting (:attr:`CheckLimits.standing`; other objects reaching into the
   column are left out);
 - ``outside_inpainted``: the inpainting changed nothing outside the grown footprint;
+- ``beside_inpainted``: nothing of the object is left just outside its footprint after the
+  inpainting (:attr:`CheckLimits.beside`: the band's pixels in the object's colours and in none of
+  the colours around it, over the footprint's area); after ``remove`` the same score is reported,
+  not judged (a rim of the object's base left there is what the inpainting's seams go over);
 - ``fill_texture`` / ``fill_luminance``: the fill is about as detailed and as bright as a ring
   around it at the training cameras (ratios within :attr:`CheckLimits.laplacian` and
   :attr:`CheckLimits.luminance`; skipped where the ring itself has no texture to compare with).
@@ -173,6 +177,18 @@ def score_checks(scores: dict, lim: CheckLimits, stage: str) -> list[Check]:
                              f"{100 * s:.1f} % of what stood in the footprint column (the object) stands there after {stage} ({st['count']} Gaussians{beside})"))  # fmt: skip
     elif "standing_note" in scores:
         out.append(Check(f"standing_{later}", True, None, "", f"not scored: {scores['standing_note']}"))
+    bs = scores.get("beside", {}).get(later)
+    if bs is not None and lim.beside is not None:
+        limit = f"<= {100 * lim.beside:g} %" if stage == "inpaint" else "reported"
+        if bs["share"] is None:
+            out.append(Check(f"beside_{later}", True, None, limit, "not scored: no training view has a footprint with a band and a ring around it"))
+        else:
+            b = bs["share"]
+            what = f"{100 * b:.2f} % of the footprint's area just outside it shows the object's colours after {stage} (worst view {100 * bs['worst_view']:.2f} %)"
+            if stage == "inpaint":
+                out.append(_fails_on(round(b, 4), bool(b <= lim.beside), "beside_inpainted", limit, what))
+            else:  # a rim of the object's base left at the footprint's edge: the inpainting's seams go over it; judged on its result
+                out.append(Check("beside_removed", True, round(b, 4), limit, f"{what} (reported; judged after inpaint)"))
     tex = scores["texture"].get("inpainted") if stage == "inpaint" else None
     if tex is not None and tex["laplacian"] is not None:
         lap, lum = tex["laplacian"], tex["luminance"]
