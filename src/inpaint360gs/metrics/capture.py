@@ -77,9 +77,9 @@ def object_beside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, 
     the footprint's area: the pixels of the band ``band_px`` wide just outside ``footprint`` whose
     colour (CIE Lab) lies farther than ``min_distance`` from every colour of ``photo`` in the ring
     ``ring_px`` outside it (the support and whatever else lies round the object) and less than half
-    as far from a colour of ``photo`` inside it (the object as photographed). A toy's feet, a
-    bucket's teeth or a dark contact rim that the removal left score their area; support that looks
-    like its surroundings scores 0. Each colour set is a fixed-seed sample of at most ``samples``
+    as far from a colour of ``photo`` inside it (the object as photographed). A piece of the object
+    left at its edge (the flat corners of a cone's base, a toy's feet, a dark contact rim) scores its
+    area; support that looks like its surroundings scores 0. Each colour set is a fixed-seed sample of at most ``samples``
     pixels. None when the footprint, the band or the ring is empty."""
     from scipy.spatial import cKDTree
 
