@@ -92,6 +92,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
     # the removed Gaussians' footprint, floaters hanging near a camera left out (views/unseen.footprint):
     # a haze in front of a held-out view would leave it empty and score the whole object as "outside"
     fps = {v.name: footprint(distilled, removed, v.camera, near=NEAR_CAMERA) for v in views}
+    photos = {v.name: scene.load_image(v).numpy() for v in views}  # read once: every model is scored against them
     scores: dict = {"psnr_outside": {}, "texture": {}, "standing": {}, "beside": {}}
     renders: dict[str, dict[str, np.ndarray]] = {k: {} for k in models}
     with torch.no_grad():
@@ -101,7 +102,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
                 for v in vs:
                     img = render(g, v.camera).color.clamp(0, 1).numpy()
                     renders[name][v.name] = img
-                    vals.append(psnr_outside(img, scene.load_image(v).numpy(), fps[v.name], grow_px))
+                    vals.append(psnr_outside(img, photos[v.name], fps[v.name], grow_px))
                 scores["psnr_outside"].setdefault(split, {})[name] = float(np.nanmean(vals)) if np.isfinite(vals).any() else None  # None: no view has a pixel outside
     for name in models:
         if name == "3dgs":
@@ -113,7 +114,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
             "ring_laplacian": float(np.nanmean([r.ring_laplacian for r in ratios])) if ratios else None,
             "views": len(ratios),
         }
-        shares = [b for v in splits["train"] if (b := object_beside(renders[name][v.name], scene.load_image(v).numpy(), fps[v.name])) is not None]
+        shares = [b for v in splits["train"] if (b := object_beside(renders[name][v.name], photos[v.name], fps[v.name])) is not None]
         scores["beside"][name] = {"share": float(np.mean(shares)) if shares else None, "worst_view": float(np.max(shares)) if shares else None,
                                   "views": len(shares)}  # fmt: skip
     means = distilled.means.detach().double().numpy()

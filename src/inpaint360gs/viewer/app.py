@@ -257,9 +257,8 @@ class ViewerApp:
             if g is not None and len(sel) == len(g):  # the field's Gaussians are the drawn model's
                 idx = np.flatnonzero(sel if keep is None else sel[keep])  # positions in the node of the selected ones drawn
             rgba = base.copy()
-            if len(idx):
-                rgb = rgba.view(np.uint8).reshape(-1, 4)[idx, :3].astype(np.float32)
-                rgba.view(np.uint8).reshape(-1, 4)[idx, :3] = np.round(0.5 * rgb + 127.5 * SELECTED_TINT).astype(np.uint8)
+            rgb = rgba.view(np.uint8).reshape(-1, 4)[:, :3]  # a view: writing it writes rgba
+            rgb[idx] = np.round(0.5 * rgb[idx] + 127.5 * SELECTED_TINT).astype(np.uint8)
             if not np.array_equal(rgba, node.buffer[:, 7]):  # each update is a message and a re-sort in the page
                 buf = node.buffer.copy()
                 buf[:, 7] = rgba
