@@ -227,19 +227,25 @@ def _without_run_details(folder: Path) -> None:
 # Registration thresholds of the synthetic scenes' SfM: half of COLMAP's (30 inliers, ratio 0.25).
 # At 256x192 a photo has ~400-1000 SIFT features; with COLMAP's own thresholds a 25-photo orbit
 # lost the photos that see mostly one face of the teapot's bread box (9 of 41) and one object-free
-# photo of the duck's floor (1 of 41); with these every image of the realistic family registers,
-# its pose error recorded in gt/colmap_frame.json.
+# photo of the duck's floor (1 of 41); with these every image of the dense-texture scenes
+# registers, its pose error recorded in gt/colmap_frame.json.
 SYNTH_ABS_POSE_MIN_INLIERS = 15
 SYNTH_ABS_POSE_MIN_INLIER_RATIO = 0.15
+# Every training photo must register; a test (object-free) photo may stay unplaced, as one of the
+# plain-sheet scene does (an object-free view of a bare sheet has little to match). The scene is
+# then scored on the test views SfM placed, the others named in gt/colmap_frame.json. Below this
+# share of placed test views the build stops: the evaluation would rest on too few of them.
+SYNTH_MIN_TEST_REGISTERED = 0.9
 
 
 def rebuild_with_colmap(truth: Path, out: Path, seed: int, progress: bool = False) -> None:
-    """``truth``'s poses and points through pycolmap into ``out`` (one thread: bit-reproducible; all images must register)."""
+    """``truth``'s poses and points through pycolmap into ``out`` (one thread: bit-reproducible; every
+    training photo and :data:`SYNTH_MIN_TEST_REGISTERED` of the test photos must register)."""
     from dataset_tools.capture.colmap import SfMConfig
     from dataset_tools.capture.pipeline import BuildConfig
     from dataset_tools.capture.synth_colmap import build_synthetic_with_colmap
 
     sfm = SfMConfig(num_threads=1, seed=seed, abs_pose_min_num_inliers=SYNTH_ABS_POSE_MIN_INLIERS,
                     abs_pose_min_inlier_ratio=SYNTH_ABS_POSE_MIN_INLIER_RATIO)
-    cfg = BuildConfig(sfm=sfm, min_registered=1.0, progress=progress)
-    build_synthetic_with_colmap(truth, out, cfg)
+    cfg = BuildConfig(sfm=sfm, progress=progress)
+    build_synthetic_with_colmap(truth, out, cfg, min_test_registered=SYNTH_MIN_TEST_REGISTERED)

@@ -156,6 +156,54 @@ def test_synthetic_scene_rebuilt_through_colmap_keeps_ground_truth(built, tmp_pa
         build_synthetic_with_colmap(truth, out)  # exists: refuses without overwrite
 
 
+def test_an_unplaced_object_free_photo_is_left_out_of_a_rebuilt_scene_and_named(built, tmp_path):
+    """An object-free photo SfM cannot place (here: featureless) is a test view the scene can do
+    without: the rebuild keeps every training view, drops that test view with its unseen mask, names
+    it in gt/colmap_frame.json, and still validates. Asked for every test view, the build stops
+    naming it."""
+    import shutil
+
+    from dataset_tools.capture.synth_colmap import build_synthetic_with_colmap
+
+    truth, _, _, _ = built
+    copy = tmp_path / "truth"
+    shutil.copytree(truth, copy)
+    blank = sorted(p.name for p in (copy / "images").iterdir() if p.name.startswith("test_"))[3]
+    shape = cv2.imread(str(copy / "images" / blank)).shape
+    cv2.imwrite(str(copy / "images" / blank), np.full(shape, 128, np.uint8))
+    n_free = _counts(truth)[1]
+    out = tmp_path / "scene"
+    report = build_synthetic_with_colmap(copy, out, BuildConfig(progress=False), min_test_registered=0.75)
+    assert sorted(report.registration["unregistered"]) == [blank]
+    names = {p.name for p in (out / "images").iterdir()}
+    assert blank not in names and len(names) == _counts(truth)[0] - 1
+    assert sum(n.startswith("test_") for n in names) == n_free - 1
+    assert not (out / "unseen_mask" / blank).exists() and len(list((out / "unseen_mask").iterdir())) == n_free - 1
+    assert json.loads((out / "gt" / "colmap_frame.json").read_text())["unplaced_test_views"] == [blank]
+    assert validate_scene(out).ok
+    with pytest.raises(InputError, match=f"only {n_free - 1} of {n_free} object-free photos registered .*{blank}"):
+        build_synthetic_with_colmap(copy, tmp_path / "strict", BuildConfig(progress=False), min_test_registered=1.0)
+    assert not (tmp_path / "strict").exists()
+
+
+def test_the_test_view_rule_refuses_an_unplaced_training_photo_and_too_few_test_views(tmp_path):
+    from dataset_tools.capture.pipeline import BuildReport
+    from dataset_tools.capture.synth_colmap import _check_test_views_placed, build_synthetic_with_colmap
+
+    def report(unplaced, n_free=16):
+        return BuildReport(out="x", captures={"object_free": n_free}, registration={"unregistered": dict.fromkeys(unplaced, "src")},
+                           points={}, output={}, timings={})
+
+    assert _check_test_views_placed(report([]), 0.9, tmp_path) == []
+    assert _check_test_views_placed(report(["test_0005.png"]), 0.9, tmp_path) == ["test_0005.png"]  # 15 of 16
+    with pytest.raises(InputError, match="only 14 of 16 object-free photos registered \\(needs 15\\)"):
+        _check_test_views_placed(report(["test_0001.png", "test_0005.png"]), 0.9, tmp_path)
+    with pytest.raises(InputError, match="1 object-inclusive photo\\(s\\) could not be placed .*IMG_0004.png"):
+        _check_test_views_placed(report(["IMG_0004.png", "test_0005.png"]), 0.0, tmp_path)
+    with pytest.raises(InputError, match="fraction"):
+        build_synthetic_with_colmap(tmp_path, tmp_path / "out", min_test_registered=1.5)
+
+
 def test_points_observed_inside_given_unseen_masks_can_be_removed(built, tmp_path):
     truth, cap, _, _ = built
     grown = tmp_path / "grown"
