@@ -75,6 +75,27 @@ def test_a_result_that_leaves_half_the_object_fails_the_beside_check(removal, tm
     assert checks["half"]["beside_removed"].passed and checks["half"]["beside_removed"].value == half_left.value  # reported only
 
 
+def test_an_object_drawn_back_into_the_fill_fails_the_in_fill_check(removal):
+    """Taken as the run's final scene, the 3DGS itself (a fill that draws the object back) shows the
+    blob's colours over most of its footprint; the clean removal shows none. With a limit the check
+    fails the first and passes the second; without one (the default) it is reported, not judged."""
+    from inpaint360gs.evaluate.capture import CaptureRun, score_capture
+    from inpaint360gs.evaluate.limits import CheckLimits
+    from inpaint360gs.pipeline.check import score_checks
+
+    base, root, _ = removal
+    scene = load_scene(root)
+    checks = {}
+    for name, final in (("clean", base / "removed"), ("object", base / "3dgs")):
+        scores, _ = score_capture(scene, CaptureRun(base / "3dgs" / "point_cloud.ply", base / "distill", base / "removed", final))
+        checks[name] = {lim: {c.name: c for c in score_checks(scores, CheckLimits(in_fill=lim), "inpaint")} for lim in (None, 0.02)}
+    clean, drawn = checks["clean"][0.02]["in_fill_inpainted"], checks["object"][0.02]["in_fill_inpainted"]
+    assert clean.passed and clean.value < 0.005, clean
+    assert not drawn.passed and drawn.value > 0.5, drawn
+    reported = checks["object"][None]["in_fill_inpainted"]
+    assert reported.passed and reported.value == drawn.value and reported.limit == "reported"
+
+
 def test_another_scenes_removal_is_refused(removal, capsys):
     base, _, other = removal
     argv = [str(other), str(base / "3dgs" / "point_cloud.ply"), str(base / "distill"), str(base / "removed"), str(base / "x.json")]

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from inpaint360gs.core.support import fit_plane, object_footprint
-from inpaint360gs.metrics.capture import grow, object_beside, psnr_outside, standing_share, texture_ratios
+from inpaint360gs.metrics.capture import grow, object_beside, object_in_fill, psnr_outside, standing_share, texture_ratios
 
 
 def test_psnr_outside_ignores_the_grown_footprint():
@@ -70,6 +70,32 @@ def test_object_beside_counts_the_objects_colours_left_next_to_its_footprint():
     far[5:15, 5:15] = [0.95, 0.8, 0.1]  # the object's colour, but far from its footprint
     assert object_beside(far, photo, disc) == 0.0
     assert object_beside(clean, photo, np.zeros((h, w), bool)) is None
+
+
+def test_object_in_fill_counts_the_objects_colours_left_inside_the_footprint():
+    """The same disc on the checker: a fill in the checker's colours reads 0, whatever its pattern
+    (here shifted by half a square); yellow specks drawn into the fill read their area over the
+    footprint's; the object's colours left beside the footprint are not counted here."""
+    h, w = 120, 160
+    yy, xx = np.mgrid[:h, :w]
+    support = np.where(((yy // 8 + xx // 8) % 2)[..., None] == 1, [0.9, 0.9, 0.9], [0.45, 0.45, 0.5])
+    disc = (yy - 60) ** 2 + (xx - 80) ** 2 <= 25**2
+    photo = support.copy()
+    photo[disc] = np.where(((xx // 6) % 2 == 0)[disc][:, None], [0.95, 0.8, 0.1], [0.05, 0.05, 0.05])
+    fill = support.copy()
+    fill[disc] = np.where(((yy // 8 + (xx + 4) // 8) % 2)[..., None] == 1, [0.9, 0.9, 0.9], [0.45, 0.45, 0.5])[disc]
+    assert object_in_fill(fill, photo, disc) == 0.0
+    specks = np.zeros((h, w), bool)
+    for y, x in ((50, 70), (62, 85), (70, 78)):
+        specks[y : y + 3, x : x + 3] = True
+    assert disc[specks].all()
+    speckled = fill.copy()
+    speckled[specks] = [0.95, 0.8, 0.1]
+    assert object_in_fill(speckled, photo, disc) == pytest.approx(specks.sum() / disc.sum())
+    beside = fill.copy()
+    beside[55:65, 107:112] = [0.95, 0.8, 0.1]  # outside the footprint: object_beside's, not this score's
+    assert object_in_fill(beside, photo, disc) == 0.0 and object_beside(beside, photo, disc) > 0
+    assert object_in_fill(fill, photo, np.zeros((h, w), bool)) is None
 
 
 def test_fit_plane_ignores_what_stands_on_it():

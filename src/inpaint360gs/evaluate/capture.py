@@ -21,7 +21,7 @@ from inpaint360gs.core.support import Footprint, object_footprint
 from inpaint360gs.evaluate.limits import CheckLimits
 from inpaint360gs.io.ply import read_ply
 from inpaint360gs.io.scene import Scene
-from inpaint360gs.metrics.capture import neighbour_gaussians, object_beside, psnr_outside, standing_mass, standing_share, texture_ratios
+from inpaint360gs.metrics.capture import neighbour_gaussians, object_beside, object_in_fill, psnr_outside, standing_mass, standing_share, texture_ratios
 from inpaint360gs.render.api import render
 from inpaint360gs.views.unseen import footprint
 
@@ -93,7 +93,7 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
     # a haze in front of a held-out view would leave it empty and score the whole object as "outside"
     fps = {v.name: footprint(distilled, removed, v.camera, near=NEAR_CAMERA) for v in views}
     photos = {v.name: scene.load_image(v).numpy() for v in views}  # read once: every model is scored against them
-    scores: dict = {"psnr_outside": {}, "texture": {}, "standing": {}, "beside": {}}
+    scores: dict = {"psnr_outside": {}, "texture": {}, "standing": {}, "beside": {}, "in_fill": {}}
     renders: dict[str, dict[str, np.ndarray]] = {k: {} for k in models}
     with torch.no_grad():
         for split, vs in splits.items():
@@ -117,6 +117,10 @@ def score_capture(scene: Scene, run: CaptureRun, *, grow_px: int = 15, ring_px: 
         shares = [b for v in splits["train"] if (b := object_beside(renders[name][v.name], photos[v.name], fps[v.name])) is not None]
         scores["beside"][name] = {"share": float(np.mean(shares)) if shares else None, "worst_view": float(np.max(shares)) if shares else None,
                                   "views": len(shares)}  # fmt: skip
+        if name == "inpainted":  # before the inpainting the hole shows what lies behind the object
+            shares = [b for v in splits["train"] if (b := object_in_fill(renders[name][v.name], photos[v.name], fps[v.name])) is not None]
+            scores["in_fill"][name] = {"share": float(np.mean(shares)) if shares else None, "worst_view": float(np.max(shares)) if shares else None,
+                                       "views": len(shares)}  # fmt: skip
     means = distilled.means.detach().double().numpy()
     opac = distilled.opacities.detach().double().numpy()
     rm = removed.numpy()
@@ -196,6 +200,13 @@ def format_scores(scores: dict, limits: CheckLimits | None = None) -> str:
             worst = "" if b["worst_view"] is None else f", worst view {100 * b['worst_view']:.2f} %"
             target = f"   (target <= {100 * lim.beside:g} %)" if name == "inpainted" and lim.beside is not None else ""
             lines.append(f"  {name:10s} {share:>8s}{worst} over {b['views']} views{target}")
+    if scores.get("in_fill"):
+        lines.append("The object's colours inside the footprint after inpainting, none of the colours 20-40 px around it, as a share of the footprint's area:")
+        for name, b in scores["in_fill"].items():
+            share = "n/a" if b["share"] is None else f"{100 * b['share']:.2f} %"
+            worst = "" if b["worst_view"] is None else f", worst view {100 * b['worst_view']:.2f} %"
+            target = f"   (target <= {100 * lim.in_fill:g} %)" if lim.in_fill is not None else "   (reported)"
+            lines.append(f"  {name:10s} {share:>8s}{worst} over {b['views']} views{target}")
     return "\n".join(lines)
 
 
@@ -228,6 +239,8 @@ def worst_case(scores: list[dict], limits: CheckLimits | None = None) -> dict:
         rows[f"standing_{name}"] = (collect(lambda s: s["standing"][name]["share"]), max, lambda w: w <= lim.standing, f"<= {lim.standing}")
     rows["beside_inpainted"] = (collect(lambda s: s["beside"]["inpainted"]["share"]), max,
                                 lambda w: lim.beside is None or w <= lim.beside, f"<= {lim.beside}")  # fmt: skip
+    rows["in_fill_inpainted"] = (collect(lambda s: s["in_fill"]["inpainted"]["share"]), max,
+                                 lambda w: lim.in_fill is None or w <= lim.in_fill, f"<= {lim.in_fill}")  # fmt: skip
     rows["fill_laplacian"] = (collect(lambda s: s["texture"]["inpainted"]["laplacian"]), lambda v: max(v, key=lambda x: abs(np.log(max(x, 1e-9)))),
                               lambda w: lo <= w <= hi, f"{lo}-{hi}")  # fmt: skip
     rows["fill_luminance"] = (collect(lambda s: s["texture"]["inpainted"]["luminance"]), lambda v: max(v, key=lambda x: abs(x - 1.0)),

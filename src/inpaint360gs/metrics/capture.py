@@ -9,7 +9,9 @@ filled region with (docs/architecture.md, "Real captures"). What can be scored:
 - **the fill belongs**: texture energy (mean absolute Laplacian of the luminance) and mean
   luminance inside the hole against a ring around it (:func:`texture_ratios`);
 - **nothing of the object is left beside it**: the pixels just outside the footprint that show the
-  object's colours and none of the colours around it (:func:`object_beside`).
+  object's colours and none of the colours around it (:func:`object_beside`);
+- **nothing of the object is left in the fill**: the same colour rule over the footprint itself,
+  the specks of a part the removal missed drawn into the filled region (:func:`object_in_fill`).
 
 Pure functions on arrays (the footprint's geometry is :mod:`inpaint360gs.core.support`'s); the
 benchmark script ``benchmarks/bench_capture.py`` applies them to a run.
@@ -71,22 +73,14 @@ def texture_ratios(image: np.ndarray, hole: np.ndarray, ring_px: int = 20) -> Te
     )
 
 
-def object_beside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, band_px: int = 10, ring_px: tuple[int, int] = (20, 40),
-                  min_distance: float = 12.0, samples: int = 4000) -> float | None:  # fmt: skip
-    """The object's parts left beside its footprint in ``render`` (H, W, 3 in [0, 1]), as a share of
-    the footprint's area: the pixels of the band ``band_px`` wide just outside ``footprint`` whose
-    colour (CIE Lab) lies farther than ``min_distance`` from every colour of ``photo`` in the ring
-    ``ring_px`` outside it (the support and whatever else lies round the object) and less than half
-    as far from a colour of ``photo`` inside it (the object as photographed). A piece of the object
-    left at its edge (the flat corners of a cone's base, a toy's feet, a dark contact rim) scores its
-    area; support that looks like its surroundings scores 0. Each colour set is a fixed-seed sample of at most ``samples``
-    pixels. None when the footprint, the band or the ring is empty."""
+def _object_coloured(render: np.ndarray, photo: np.ndarray, hole: np.ndarray, region: np.ndarray, ring_px: tuple[int, int],
+                     min_distance: float, samples: int) -> float | None:  # fmt: skip
+    """Pixels of ``region`` in ``render`` coloured like the object and like nothing around it, over
+    ``hole``'s area (:func:`object_beside`'s rule); None when the hole, the region or the ring is empty."""
     from scipy.spatial import cKDTree
 
-    hole = footprint.astype(bool)
-    band = grow(hole, band_px) & ~hole
     ring = grow(hole, ring_px[1]) & ~grow(hole, ring_px[0])
-    if not hole.any() or not band.any() or not ring.any():
+    if not hole.any() or not region.any() or not ring.any():
         return None
 
     def lab(img: np.ndarray) -> np.ndarray:
@@ -99,10 +93,36 @@ def object_beside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, 
         return cKDTree(pixels[rng.choice(len(pixels), samples, replace=False)] if len(pixels) > samples else pixels)
 
     inside, around = sample(photo_lab[hole]), sample(photo_lab[ring])
-    colours = lab(render)[band]
+    colours = lab(render)[region]
     d_obj, _ = inside.query(colours)
     d_around, _ = around.query(colours)
     return float(((d_around > min_distance) & (d_obj < 0.5 * d_around)).sum() / hole.sum())
+
+
+def object_beside(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, band_px: int = 10, ring_px: tuple[int, int] = (20, 40),
+                  min_distance: float = 12.0, samples: int = 4000) -> float | None:  # fmt: skip
+    """The object's parts left beside its footprint in ``render`` (H, W, 3 in [0, 1]), as a share of
+    the footprint's area: the pixels of the band ``band_px`` wide just outside ``footprint`` whose
+    colour (CIE Lab) lies farther than ``min_distance`` from every colour of ``photo`` in the ring
+    ``ring_px`` outside it (the support and whatever else lies round the object) and less than half
+    as far from a colour of ``photo`` inside it (the object as photographed). A piece of the object
+    left at its edge (the flat corners of a cone's base, a toy's feet, a dark contact rim) scores its
+    area; support that looks like its surroundings scores 0. Each colour set is a fixed-seed sample of at most ``samples``
+    pixels. None when the footprint, the band or the ring is empty."""
+    hole = footprint.astype(bool)
+    return _object_coloured(render, photo, hole, grow(hole, band_px) & ~hole, ring_px, min_distance, samples)
+
+
+def object_in_fill(render: np.ndarray, photo: np.ndarray, footprint: np.ndarray, ring_px: tuple[int, int] = (20, 40),
+                   min_distance: float = 12.0, samples: int = 4000) -> float | None:  # fmt: skip
+    """The object's colours inside its footprint in the filled ``render``, as a share of the
+    footprint's area: :func:`object_beside`'s rule over the footprint itself. Specks of a part the
+    removal missed (a bucket's teeth left standing on a mat) or a fill that copies the object score
+    their area; a fill in the colours around the hole scores 0, however its texture runs. Only
+    meaningful after the inpainting: before it the hole shows whatever lies behind the object. None
+    when the footprint or the ring is empty."""
+    hole = footprint.astype(bool)
+    return _object_coloured(render, photo, hole, hole, ring_px, min_distance, samples)
 
 
 OPAQUE_ABOVE_TOP = 0.5  # over the object's top only Gaussians at least this opaque count as standing (see standing_share)

@@ -19,6 +19,9 @@ capture without ground truth allows (:mod:`inpaint360gs.evaluate.capture`) and w
   inpainting (:attr:`CheckLimits.beside`: the band's pixels in the object's colours and in none of
   the colours around it, over the footprint's area); after ``remove`` the same score is reported,
   not judged (a rim of the object's base left there is what the inpainting's seams go over);
+- ``in_fill_inpainted``: nothing of the object is drawn into the fill (:attr:`CheckLimits.in_fill`:
+  the footprint's pixels in the object's colours and in none of the colours around it, over its
+  area; reported, not judged, when the limit is None);
 - ``fill_texture`` / ``fill_luminance``: the fill is about as detailed and as bright as a ring
   around it at the training cameras (ratios within :attr:`CheckLimits.laplacian` and
   :attr:`CheckLimits.luminance`; skipped where the ring itself has no texture to compare with).
@@ -189,6 +192,18 @@ def score_checks(scores: dict, lim: CheckLimits, stage: str) -> list[Check]:
                 out.append(_fails_on(round(b, 4), bool(b <= lim.beside), "beside_inpainted", limit, what))
             else:  # a rim of the object's base left at the footprint's edge: the inpainting's seams go over it; judged on its result
                 out.append(Check("beside_removed", True, round(b, 4), limit, f"{what} (reported; judged after inpaint)"))
+    fill = scores.get("in_fill", {}).get("inpainted") if stage == "inpaint" else None
+    if fill is not None:
+        limit = "reported" if lim.in_fill is None else f"<= {100 * lim.in_fill:g} %"
+        if fill["share"] is None:
+            out.append(Check("in_fill_inpainted", True, None, limit, "not scored: no training view has a footprint with a ring around it"))
+        else:
+            b = fill["share"]
+            what = f"{100 * b:.2f} % of the footprint shows the object's colours after inpaint (worst view {100 * fill['worst_view']:.2f} %)"
+            if lim.in_fill is None:
+                out.append(Check("in_fill_inpainted", True, round(b, 4), limit, f"{what} (reported)"))
+            else:
+                out.append(_fails_on(round(b, 4), bool(b <= lim.in_fill), "in_fill_inpainted", limit, what))
     tex = scores["texture"].get("inpainted") if stage == "inpaint" else None
     if tex is not None and tex["laplacian"] is not None:
         lap, lum = tex["laplacian"], tex["luminance"]
