@@ -44,17 +44,23 @@ def test_texture_ratios_flat_and_textured_fill():
     assert texture_ratios(img, np.zeros((80, 80), bool)) is None
 
 
-def test_object_beside_counts_the_objects_colours_left_next_to_its_footprint():
-    """A yellow-and-black disc on a grey-and-white checker: a clean removal's band reads 0; a patch of
-    the disc's colours left just outside the footprint reads its area over the footprint's; a patch of
-    the checker's colours (support that looks like its surroundings) and a patch far from the
-    footprint read 0."""
-    h, w = 120, 160
+def _disc_on_checker(h: int = 120, w: int = 160):
+    """A yellow-and-black disc photographed on a grey-and-white checker: (support, disc, photo, yy, xx)."""
     yy, xx = np.mgrid[:h, :w]
     support = np.where(((yy // 8 + xx // 8) % 2)[..., None] == 1, [0.9, 0.9, 0.9], [0.45, 0.45, 0.5])
     disc = (yy - 60) ** 2 + (xx - 80) ** 2 <= 25**2
     photo = support.copy()
     photo[disc] = np.where(((xx // 6) % 2 == 0)[disc][:, None], [0.95, 0.8, 0.1], [0.05, 0.05, 0.05])
+    return support, disc, photo, yy, xx
+
+
+def test_object_beside_counts_the_objects_colours_left_next_to_its_footprint():
+    """A yellow-and-black disc on a grey-and-white checker: a clean removal's band reads 0; a patch of
+    the disc's colours left just outside the footprint reads its area over the footprint's; a patch of
+    the checker's colours (support that looks like its surroundings) and a patch far from the
+    footprint read 0."""
+    support, disc, photo, yy, xx = _disc_on_checker()
+    h, w = disc.shape
     clean = support.copy()  # the removed render: the support where the object stood
     assert object_beside(clean, photo, disc) == 0.0
     left = clean.copy()
@@ -76,12 +82,8 @@ def test_object_in_fill_counts_the_objects_colours_left_inside_the_footprint():
     """The same disc on the checker: a fill in the checker's colours reads 0, whatever its pattern
     (here shifted by half a square); yellow specks drawn into the fill read their area over the
     footprint's; the object's colours left beside the footprint are not counted here."""
-    h, w = 120, 160
-    yy, xx = np.mgrid[:h, :w]
-    support = np.where(((yy // 8 + xx // 8) % 2)[..., None] == 1, [0.9, 0.9, 0.9], [0.45, 0.45, 0.5])
-    disc = (yy - 60) ** 2 + (xx - 80) ** 2 <= 25**2
-    photo = support.copy()
-    photo[disc] = np.where(((xx // 6) % 2 == 0)[disc][:, None], [0.95, 0.8, 0.1], [0.05, 0.05, 0.05])
+    support, disc, photo, yy, xx = _disc_on_checker()
+    h, w = disc.shape
     fill = support.copy()
     fill[disc] = np.where(((yy // 8 + (xx + 4) // 8) % 2)[..., None] == 1, [0.9, 0.9, 0.9], [0.45, 0.45, 0.5])[disc]
     assert object_in_fill(fill, photo, disc) == 0.0
